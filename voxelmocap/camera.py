@@ -1,0 +1,559 @@
+"""Calibrated cameras: the Bouguet model of the HumanEva ``.cal`` files.
+
+A world point ``X`` (mm) maps to the camera frame by ``Xc = R @ X + T`` (x right, y down, z forward),
+then through the pinhole, five distortion terms ``kc = (k1, k2, p1, p2, k3)`` and the skew
+``alpha_c`` to pixels ``(u, v) = (column, row)``, pixel ``(0, 0)`` being the centre of the upper-left
+pixel (``HUMANEVA.md`` §2.2, Bouguet's ``project_points2``).
+
+File formats handled here:
+
+* HumanEva ``.cal``: 22 whitespace-separated numbers ``fc(2) cc(2) alpha_c kc(5) R(9, row-major)
+  T(3)``; :meth:`Camera.from_cal`, :meth:`Camera.to_cal`.
+* OpenCV ``(K, dist, rvec, tvec)``: :meth:`Camera.to_opencv`, :meth:`Camera.from_opencv`.
+* anipose / Pose2Sim calibration TOML (``[cam_0] name, size, matrix, distortions, rotation,
+  translation``): :func:`read_calibration_toml`, :func:`write_calibration_toml`.
+
+>>> cam = Camera("C1", fc=(800, 800), cc=(320, 240), R=np.eye(3), T=(0, 0, 4000))
+>>> cam.project([[0.0, 0.0, 0.0]])
+array([[320., 240.]])
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .errors import InputError
+
+__all__ = [
+    "CAMERA_ORDER",
+    "Camera",
+    "Rig",
+    "read_calibration_toml",
+    "sort_camera_names",
+    "write_calibration_toml",
+]
+
+#: HumanEva-I's internal camera order (toolkit ``sync_stream``).
+CAMERA_ORDER = ("C1", "C2", "C3", "C4", "BW1", "BW2", "BW3", "BW4")
+
+#: Where the capture-area centre is assumed to be when checking that a camera looks at it (mm).
+CAPTURE_CENTRE = (0.0, 0.0, 1000.0)
+
+_ORTHONORMAL_TOL = 1e-4
+
+
+def sort_camera_names(names: Iterable[str]) -> list[str]:
+    """Sort camera names in HumanEva order (C1, C2, C3, BW1..BW4), then any others alphabetically."""
+    order = {name: i for i, name in enumerate(CAMERA_ORDER)}
+    return sorted(names, key=lambda n: (order.get(n.upper(), len(order)), n))
+
+
+def _as_vector(values, n: int, what: str, source) -> np.ndarray:
+    arr = np.asarray(values, dtype=float).reshape(-1)
+    if arr.shape != (n,):
+        raise InputError(source, f"{what} must have {n} values, got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(source, f"{what} contains NaN or infinite values")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """One calibrated camera (Bouguet / HumanEva ``.cal`` model).
+
+    Parameters
+    ----------
+    name : str
+        Camera name, e.g. ``"C1"`` or ``"BW3"``.
+    fc : (2,) array_like
+        Focal lengths along x and y (pixels).
+    cc : (2,) array_like
+        Principal point (pixels), pixel ``(0, 0)`` centred at ``(0, 0)``.
+    alpha_c : float
+        Skew coefficient (dimensionless).
+    kc : (5,) array_like
+        Distortion ``(k1, k2, p1, p2, k3)`` in Bouguet order.
+    R : (3, 3) array_like
+        World→camera rotation (orthonormal, det +1).
+    T : (3,) array_like
+        World→camera translation (mm): ``Xc = R @ X + T``.
+    size : (2,) tuple of int
+        Image size ``(W, H)`` in pixels.
+    source : str, optional
+        Where the camera came from; names the file in error messages.
+
+    Raises
+    ------
+    InputError
+        On non-finite values, a non-orthonormal ``R`` or non-positive focal lengths.
+    """
+
+    name: str
+    fc: np.ndarray
+    cc: np.ndarray
+    R: np.ndarray
+    T: np.ndarray
+    alpha_c: float = 0.0
+    kc: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    size: tuple[int, int] = (640, 480)
+    source: str | None = None
+
+    def __post_init__(self):
+        src = self.source or f"camera {self.name}"
+        fc = _as_vector(self.fc, 2, "fc", src)
+        if np.any(fc <= 0):
+            raise InputError(src, f"focal lengths must be positive, got {fc.tolist()}")
+        R = np.asarray(self.R, dtype=float)
+        if R.size != 9:
+            raise InputError(src, f"R must have 9 values, got {R.size}")
+        R = R.reshape(3, 3)
+        if not np.all(np.isfinite(R)):
+            raise InputError(src, "R contains NaN or infinite values")
+        err = np.abs(R @ R.T - np.eye(3)).max()
+        if err > _ORTHONORMAL_TOL or np.linalg.det(R) < 0:
+            raise InputError(src, f"R is not a rotation (|R Rᵀ − I| = {err:.2g}, det = "
+                                  f"{np.linalg.det(R):.3f})")
+        alpha = float(self.alpha_c)
+        if not np.isfinite(alpha):
+            raise InputError(src, "alpha_c is NaN or infinite")
+        size = tuple(int(v) for v in self.size)
+        if len(size) != 2 or min(size) < 1:
+            raise InputError(src, f"image size must be two positive integers, got {self.size!r}")
+        for key, value in (
+            ("fc", fc),
+            ("cc", _as_vector(self.cc, 2, "cc", src)),
+            ("kc", _as_vector(self.kc, 5, "kc", src)),
+            ("R", R),
+            ("T", _as_vector(self.T, 3, "T", src)),
+            ("alpha_c", alpha),
+            ("size", size),
+        ):
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+                value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def width(self) -> int:
+        """Image width W (pixels)."""
+        return self.size[0]
+
+    @property
+    def height(self) -> int:
+        """Image height H (pixels)."""
+        return self.size[1]
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) camera centre in world coordinates (mm): ``C = -Rᵀ T``."""
+        return -self.R.T @ self.T
+
+    centre = center
+
+    @property
+    def optical_axis(self) -> np.ndarray:
+        """(3,) unit vector of the viewing direction (camera +z) in world coordinates."""
+        return self.R[2].copy()
+
+    def world_to_camera(self, points) -> np.ndarray:
+        """Camera-frame coordinates ``(N, 3)`` (mm) of world points ``(N, 3)`` (mm)."""
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        return points @ self.R.T + self.T
+
+    def distort(self, normalised) -> np.ndarray:
+        """Apply the distortion to normalised pinhole coordinates ``(N, 2)`` → distorted ``(N, 2)``."""
+        a, b = np.asarray(normalised, dtype=float).reshape(-1, 2).T
+        k1, k2, p1, p2, k3 = self.kc
+        r2 = a * a + b * b
+        radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
+        xd = a * radial + 2.0 * p1 * a * b + p2 * (r2 + 2.0 * a * a)
+        yd = b * radial + p1 * (r2 + 2.0 * b * b) + 2.0 * p2 * a * b
+        return np.stack([xd, yd], axis=1)
+
+    def project(self, points, *, return_depth: bool = False):
+        """Project world points to pixels with the full model (skew and all distortion terms).
+
+        Parameters
+        ----------
+        points : (N, 3) array_like
+            World points (mm).
+        return_depth : bool
+            Also return the camera-frame depth ``z`` (mm); points with ``z <= 0`` are behind the
+            camera and their pixels are meaningless.
+
+        Returns
+        -------
+        pixels : (N, 2) ndarray
+            ``(u, v)`` = (column, row), pixel ``(0, 0)`` centred at ``(0, 0)``.
+        depth : (N,) ndarray
+            Only with ``return_depth``.
+        """
+        xc = self.world_to_camera(points)
+        z = xc[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ab = xc[:, :2] / z[:, None]
+        xd, yd = self.distort(ab).T
+        u = self.fc[0] * (xd + self.alpha_c * yd) + self.cc[0]
+        v = self.fc[1] * yd + self.cc[1]
+        pixels = np.stack([u, v], axis=1)
+        return (pixels, z) if return_depth else pixels
+
+    def undistort_pixels(self, pixels) -> np.ndarray:
+        """Normalised pinhole coordinates ``(N, 2)`` of pixels ``(N, 2)`` (inverse of the lens model).
+
+        The skew is removed in closed form; the distortion is inverted iteratively with OpenCV
+        (``undistortPointsIter``, to 1e-12 or 100 iterations).
+        """
+        pixels = np.asarray(pixels, dtype=float).reshape(-1, 2)
+        yd = (pixels[:, 1] - self.cc[1]) / self.fc[1]
+        xd = (pixels[:, 0] - self.cc[0]) / self.fc[0] - self.alpha_c * yd
+        if not np.any(self.kc):
+            return np.stack([xd, yd], axis=1)
+        pts = np.stack([xd, yd], axis=1).reshape(-1, 1, 2)
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+        und = cv2.undistortPointsIter(pts, np.eye(3), self.kc.reshape(1, 5), None, None, criteria)
+        return und.reshape(-1, 2)
+
+    def rays(self, pixels) -> tuple[np.ndarray, np.ndarray]:
+        """Back-projection rays of pixels.
+
+        Parameters
+        ----------
+        pixels : (N, 2) array_like
+            ``(u, v)`` pixel positions.
+
+        Returns
+        -------
+        origins : (N, 3) ndarray
+            The camera centre (mm), repeated.
+        directions : (N, 3) ndarray
+            Unit world directions; ``origin + t * direction`` for ``t > 0`` projects onto the pixel.
+        """
+        norm = self.undistort_pixels(pixels)
+        d_cam = np.concatenate([norm, np.ones((len(norm), 1))], axis=1)
+        d_world = d_cam @ self.R  # Rᵀ applied to each row
+        d_world /= np.linalg.norm(d_world, axis=1, keepdims=True)
+        return np.broadcast_to(self.center, d_world.shape).copy(), d_world
+
+    def in_image(self, pixels) -> np.ndarray:
+        """Boolean ``(N,)``: pixel centres that round into the image ``[0, W) × [0, H)``."""
+        pixels = np.asarray(pixels, dtype=float).reshape(-1, 2)
+        u = np.round(pixels[:, 0])
+        v = np.round(pixels[:, 1])
+        return (u >= 0) & (u < self.width) & (v >= 0) & (v < self.height)
+
+    def looks_at(self, point=CAPTURE_CENTRE) -> bool:
+        """True when ``point`` (mm) lies in front of the camera (positive depth)."""
+        return bool(self.world_to_camera(point)[0, 2] > 0)
+
+    # ------------------------------------------------------------------ OpenCV
+    @property
+    def K(self) -> np.ndarray:
+        """(3, 3) intrinsic matrix, skew included: ``[[fx, alpha_c·fx, cx], [0, fy, cy], [0, 0, 1]]``."""
+        return np.array([
+            [self.fc[0], self.alpha_c * self.fc[0], self.cc[0]],
+            [0.0, self.fc[1], self.cc[1]],
+            [0.0, 0.0, 1.0],
+        ])
+
+    def to_opencv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(K (3, 3), dist (5,), rvec (3,), tvec (3,))`` for OpenCV.
+
+        ``dist`` is ``(k1, k2, p1, p2, k3)`` (identical order to Bouguet's ``kc``). OpenCV's
+        ``projectPoints`` ignores ``K[0, 1]``, so a camera with skew projects differently there.
+        """
+        rvec, _ = cv2.Rodrigues(self.R)
+        return self.K, self.kc.copy(), rvec.reshape(3), self.T.copy()
+
+    @classmethod
+    def from_opencv(cls, name, K, dist, rvec, tvec, size=(640, 480), source=None) -> Camera:
+        """Build a camera from OpenCV parameters (``dist`` with 4, 5 or more terms; the first 5 kept).
+
+        Distortion terms beyond ``k3`` (rational or thin-prism models) cannot be represented and
+        raise :class:`InputError` when non-zero.
+        """
+        src = source or f"camera {name}"
+        K = np.asarray(K, dtype=float).reshape(3, 3)
+        dist = np.asarray(dist, dtype=float).reshape(-1)
+        if dist.size < 5:
+            dist = np.concatenate([dist, np.zeros(5 - dist.size)])
+        if np.any(dist[5:] != 0):
+            raise InputError(src, "distortion terms beyond k3 are not supported by the .cal model")
+        rvec = _as_vector(rvec, 3, "rotation vector", src)
+        R, _ = cv2.Rodrigues(rvec.reshape(3, 1))
+        fx = K[0, 0]
+        alpha = K[0, 1] / fx if fx else 0.0
+        return cls(name=name, fc=(K[0, 0], K[1, 1]), cc=(K[0, 2], K[1, 2]), alpha_c=alpha,
+                   kc=dist[:5], R=R, T=tvec, size=size, source=source)
+
+    # ------------------------------------------------------------------ .cal files
+    @classmethod
+    def from_cal(cls, path, name: str | None = None, size=(640, 480), *,
+                 check_facing=CAPTURE_CENTRE) -> Camera:
+        """Read a HumanEva ``.cal`` file.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The ``.cal`` file: 22 whitespace-separated numbers (``HUMANEVA.md`` §2.1).
+        name : str, optional
+            Camera name; by default the file stem (``C1.cal`` → ``"C1"``).
+        size : (2,) tuple of int
+            Image size ``(W, H)``; ``.cal`` files do not store it.
+        check_facing : (3,) array_like or None
+            A world point (mm) that must lie in front of the camera; ``None`` skips the check.
+
+        Raises
+        ------
+        InputError
+            Missing or unreadable file, wrong number of values, text, NaN/inf, a non-orthonormal
+            R, or a camera facing away from ``check_facing``.
+        """
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="ascii", errors="strict")
+        except FileNotFoundError:
+            raise InputError(path, "calibration file not found") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(path, f"cannot read calibration file ({exc.__class__.__name__})") from None
+        tokens = text.split()
+        if len(tokens) != 22:
+            raise InputError(path, f"expected 22 numbers in a .cal file, found {len(tokens)} values")
+        try:
+            values = np.array([float(t) for t in tokens])
+        except ValueError:
+            bad = next(t for t in tokens if not _is_float(t))
+            raise InputError(path, f"value {bad[:20]!r} is not a number") from None
+        if not np.all(np.isfinite(values)):
+            raise InputError(path, "contains NaN or infinite values")
+        cam = cls(name=name or path.stem, fc=values[0:2], cc=values[2:4], alpha_c=values[4],
+                  kc=values[5:10], R=values[10:19].reshape(3, 3), T=values[19:22], size=size,
+                  source=str(path))
+        if check_facing is not None and not cam.looks_at(check_facing):
+            raise InputError(path, f"the capture-area centre {tuple(check_facing)} mm is behind "
+                                   "the camera (check R and T)")
+        return cam
+
+    def to_cal(self, path) -> None:
+        """Write a HumanEva ``.cal`` file (one value per line, as the toolkit's writer), atomically."""
+        values = np.concatenate([self.fc, self.cc, [self.alpha_c], self.kc, self.R.reshape(-1),
+                                 self.T])
+        text = "".join(f"{v:.10g}\n" for v in values)
+        _atomic_write_text(Path(path), text)
+
+    def with_size(self, size) -> Camera:
+        """A copy with another image size ``(W, H)``."""
+        return Camera(self.name, self.fc, self.cc, self.R, self.T, self.alpha_c, self.kc, size,
+                      self.source)
+
+    def __repr__(self) -> str:
+        c = self.center
+        return (f"Camera({self.name!r}, f=({self.fc[0]:.1f}, {self.fc[1]:.1f}), "
+                f"centre=({c[0]:.0f}, {c[1]:.0f}, {c[2]:.0f}) mm, size={self.size})")
+
+
+def _is_float(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+# ---------------------------------------------------------------------- rigs
+class Rig(Sequence):
+    """An ordered list of cameras with unique names.
+
+    Parameters
+    ----------
+    cameras : iterable of Camera
+        The cameras, in the order to use (HumanEva order when read from a folder).
+    """
+
+    def __init__(self, cameras: Iterable[Camera]):
+        self.cameras = list(cameras)
+        names = [c.name for c in self.cameras]
+        if len(set(names)) != len(names):
+            raise InputError("rig", f"camera names are not unique: {names}")
+
+    @classmethod
+    def from_folder(cls, folder, size=(640, 480), names: Iterable[str] | None = None) -> Rig:
+        """Read every ``*.cal`` of ``folder`` (HumanEva order), or only ``names`` when given.
+
+        A ``sizes.toml`` beside the ``.cal`` files (``C1 = [640, 480]`` …) overrides ``size`` per camera.
+        """
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise InputError(folder, "calibration folder not found")
+        files = {p.stem: p for p in folder.iterdir() if p.suffix.lower() == ".cal" and p.is_file()}
+        if not files:
+            raise InputError(folder, "no .cal camera files in this folder")
+        sizes = _read_sizes(folder / "sizes.toml")
+        if names is None:
+            selected = sort_camera_names(files)
+        else:
+            by_upper = {k.upper(): k for k in files}
+            selected = []
+            for n in names:
+                if n.upper() not in by_upper:
+                    raise InputError(folder, f"no calibration for camera {n!r} "
+                                             f"(have {', '.join(sort_camera_names(files))})")
+                selected.append(by_upper[n.upper()])
+        return cls(Camera.from_cal(files[n], name=n, size=sizes.get(n, size)) for n in selected)
+
+    def to_folder(self, folder) -> None:
+        """Write one ``<name>.cal`` per camera and a ``sizes.toml`` into ``folder``."""
+        import tomli_w
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        for cam in self.cameras:
+            cam.to_cal(folder / f"{cam.name}.cal")
+        _atomic_write_text(folder / "sizes.toml",
+                           tomli_w.dumps({c.name: list(c.size) for c in self.cameras}))
+
+    @property
+    def names(self) -> list[str]:
+        """Camera names in rig order."""
+        return [c.name for c in self.cameras]
+
+    def __getitem__(self, key):
+        if isinstance(key, str):
+            for cam in self.cameras:
+                if cam.name.upper() == key.upper():
+                    return cam
+            raise KeyError(key)
+        if isinstance(key, slice):
+            return Rig(self.cameras[key])
+        return self.cameras[key]
+
+    def __len__(self) -> int:
+        return len(self.cameras)
+
+    def __iter__(self) -> Iterator[Camera]:
+        return iter(self.cameras)
+
+    def select(self, names: Iterable[str]) -> Rig:
+        """The sub-rig of the named cameras, in the given order (case-insensitive names)."""
+        out = []
+        for n in names:
+            try:
+                out.append(self[n])
+            except KeyError:
+                raise InputError("cameras", f"unknown camera {n!r} (have "
+                                            f"{', '.join(self.names)})") from None
+        return Rig(out)
+
+    def __repr__(self) -> str:
+        return f"Rig({', '.join(self.names)})"
+
+
+def _read_sizes(path: Path) -> dict[str, tuple[int, int]]:
+    if not path.exists():
+        return {}
+    data = _load_toml(path)
+    sizes = {}
+    for name, value in data.items():
+        try:
+            w, h = (int(v) for v in value)
+        except (TypeError, ValueError):
+            raise InputError(path, f"size of {name!r} must be [W, H], got {value!r}") from None
+        sizes[name] = (w, h)
+    return sizes
+
+
+def _load_toml(path: Path) -> dict:
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(path, "file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"invalid TOML ({exc})") from None
+    except OSError as exc:
+        raise InputError(path, f"cannot read ({exc.__class__.__name__})") from None
+
+
+# ---------------------------------------------------------------------- anipose / Pose2Sim TOML
+def read_calibration_toml(path, *, translation_scale: float = 1.0) -> Rig:
+    """Read an anipose / Pose2Sim calibration TOML into a :class:`Rig`.
+
+    Every table with ``matrix``, ``distortions``, ``rotation`` (Rodrigues vector) and
+    ``translation`` is a camera; ``[metadata]`` and other tables are ignored. Fisheye cameras are
+    refused (the ``.cal`` model cannot hold them).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The TOML file.
+    translation_scale : float
+        Multiplies the translations to get millimetres: 1 for anipose boards measured in mm,
+        1000 for Pose2Sim files (metres).
+    """
+    path = Path(path)
+    data = _load_toml(path)
+    cameras = []
+    for key, table in data.items():
+        if not isinstance(table, dict) or "matrix" not in table:
+            continue
+        if table.get("fisheye", False):
+            raise InputError(path, f"[{key}] is a fisheye camera, which the .cal model cannot hold")
+        try:
+            name = str(table.get("name", key))
+            size = tuple(int(round(float(v))) for v in table["size"])
+            K = np.asarray(table["matrix"], dtype=float)
+            dist = np.asarray(table["distortions"], dtype=float)
+            rvec = np.asarray(table["rotation"], dtype=float)
+            tvec = np.asarray(table["translation"], dtype=float) * float(translation_scale)
+        except KeyError as exc:
+            raise InputError(path, f"[{key}] lacks {exc.args[0]!r}") from None
+        except (TypeError, ValueError) as exc:
+            raise InputError(path, f"[{key}] has a malformed value ({exc})") from None
+        if K.shape != (3, 3):
+            raise InputError(path, f"[{key}] matrix must be 3x3")
+        cameras.append(Camera.from_opencv(name, K, dist, rvec, tvec, size=size,
+                                          source=f"{path} [{key}]"))
+    if not cameras:
+        raise InputError(path, "no camera tables (with 'matrix') in this calibration TOML")
+    return Rig(cameras)
+
+
+def write_calibration_toml(rig: Iterable[Camera], path, *, translation_scale: float = 1.0) -> None:
+    """Write cameras as an anipose-style calibration TOML (``[cam_0]`` … plus ``[metadata]``).
+
+    Translations are divided by ``translation_scale`` (1000 writes metres, as Pose2Sim expects).
+    Skew is folded into ``matrix[0][1]``, which anipose ignores.
+    """
+    import tomli_w
+
+    out = {}
+    for i, cam in enumerate(rig):
+        K, dist, rvec, tvec = cam.to_opencv()
+        out[f"cam_{i}"] = {
+            "name": cam.name,
+            "size": [int(cam.size[0]), int(cam.size[1])],
+            "matrix": K.tolist(),
+            "distortions": dist.tolist(),
+            "rotation": rvec.tolist(),
+            "translation": (tvec / float(translation_scale)).tolist(),
+            "fisheye": False,
+        }
+    out["metadata"] = {"adjusted": False, "error": 0.0, "written_by": "voxelmocap"}
+    _atomic_write_text(Path(path), tomli_w.dumps(out))

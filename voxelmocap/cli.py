@@ -1,0 +1,57 @@
+"""The ``voxelmocap`` command: a thin argparse front over one module per subcommand.
+
+Each subcommand lives in ``voxelmocap/commands/<name>.py`` with ``add_parser(subparsers)`` and
+``run(args) -> int``; heavy imports happen inside ``run`` so that ``--help`` stays fast. Errors that
+users can fix (:class:`voxelmocap.errors.VoxelmocapError`) are printed as one line and exit with 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from . import __version__
+from .errors import VoxelmocapError
+
+__all__ = ["main"]
+
+#: Subcommand name → module under ``voxelmocap.commands``. Order is the order of ``--help``.
+COMMANDS: dict[str, str] = {
+    "info": "info",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every registered subcommand."""
+    parser = argparse.ArgumentParser(
+        prog="voxelmocap",
+        description="Markerless multi-camera motion capture on HumanEva-format sequences.",
+    )
+    parser.add_argument("--version", action="version", version=f"voxelmocap {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module_name in COMMANDS.values():
+        module = importlib.import_module(f"voxelmocap.commands.{module_name}")
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``voxelmocap`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args.run(args) or 0)
+    except VoxelmocapError as exc:
+        print(f"voxelmocap {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"voxelmocap {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
