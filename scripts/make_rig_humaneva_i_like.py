@@ -16,7 +16,8 @@ from voxelmocap.camera import Camera, Rig
 
 OUT = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 SIZE = (640, 480)
-TARGET = np.array([0.0, 0.0, 750.0])  # BW cameras aim a little below pelvis height (mm) so the floor corners stay in view
+# BW cameras aim a little below pelvis height (mm) so that the floor corners stay in view.
+TARGET = np.array([0.0, 0.0, 750.0])
 
 # VideoPose3D, HumanEva-I S1: orientation (w, x, y, z) camera→world; centre (mm).
 S1_EXTRINSICS = {

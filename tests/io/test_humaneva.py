@@ -1,0 +1,108 @@
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from humaneva_fixture import decode_frame_number, make_tiny_dataset
+
+from voxelmocap.cli import main
+from voxelmocap.errors import InputError
+from voxelmocap.io.humaneva import Dataset
+
+
+def test_discovery_and_sync(tiny_dataset):
+    ds = Dataset(tiny_dataset)
+    assert ds.subjects == ["S1"]
+    assert ds.sequences("S1") == ["Walking_1"]
+    seq = ds.sequence("s1", "walking_1")
+    assert seq.camera_names == ["C1", "C2", "BW1"]
+    assert seq.starts == {"C1": 6, "C2": 8, "BW1": 7}
+    assert seq.n_frames == 12
+    np.testing.assert_array_equal(seq.frame_numbers, np.arange(1, 13))
+    assert seq.rig.names == ["C1", "C2", "BW1"]
+    assert seq.ground_truth().endpoints.shape == (12, 20, 3)
+    assert len(seq.background_paths("BW1")) == 1
+
+
+def test_frames_show_the_synchronised_video_frame(tiny_dataset):
+    seq = Dataset(tiny_dataset).sequence("S1", "Walking_1")
+    leads = {"C1": 5, "C2": 7, "BW1": 6}
+    for F, images in seq.frames([1, 4, 5, 12]):
+        for cam, image in images.items():
+            assert decode_frame_number(image) == leads[cam] + F
+        assert images["C1"].shape == (480, 640, 3)
+        assert images["BW1"].shape == (480, 640)
+    # random access agrees with sequential decoding
+    np.testing.assert_array_equal(seq.read_frame(9)["C2"], dict(seq.frames([9]))[9]["C2"])
+
+
+def test_numbered_image_folder_and_camera_subset(tmp_path):
+    root = make_tiny_dataset(tmp_path / "d", image_folder_camera="C2")
+    seq = Dataset(root).sequence("S1", "Walking_1", cameras=["C2", "bw1"])
+    assert seq.camera_names == ["C2", "BW1"]
+    images = seq.read_frame(3)
+    assert decode_frame_number(images["C2"]) == 7 + 3
+
+
+def test_case_insensitive_folders(tmp_path):
+    root = make_tiny_dataset(tmp_path / "d")
+    (root / "S1" / "Calibration_Data").rename(root / "S1" / "Calibration_DATA")
+    seq = Dataset(root).sequence("S1", "Walking_1")
+    assert seq.rig.names == ["C1", "C2", "BW1"]
+
+
+def test_bad_inputs(tmp_path):
+    root = make_tiny_dataset(tmp_path / "d")
+    ds = Dataset(root)
+    with pytest.raises(InputError, match="unknown sequence"):
+        ds.sequence("S1", "Jog_1")
+    with pytest.raises(InputError, match="unknown subject"):
+        ds.sequence("S7", "Walking_1")
+    with pytest.raises(InputError, match="no sync file for camera"):
+        ds.sequence("S1", "Walking_1", cameras=["C3"])
+    seq = ds.sequence("S1", "Walking_1")
+    with pytest.raises(InputError, match="outside the synchronised range"):
+        list(seq.frames([13]))
+    (root / "S1" / "Image_Data" / "Walking_1_(C1).avi").unlink()
+    with pytest.raises(InputError, match=r"Walking_1_\(C1\).avi: video not found"):
+        _ = Dataset(root).sequence("S1", "Walking_1").n_frames
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "voxelmocap.cli", *args], capture_output=True,
+                          text=True)
+
+
+def test_info_lists_and_validates(tiny_dataset, capsys):
+    assert main(["info", str(tiny_dataset)]) == 0
+    out = capsys.readouterr().out
+    assert "Walking_1: 12 synchronised frames, cameras C1, C2, BW1" in out
+    assert "start    8" in out and "all files read are valid" in out
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (lambda r: (r / "S1/Calibration_Data/C2.cal").write_text("1 2 3"), "C2.cal: expected 22"),
+        (lambda r: (r / "S1/Sync_Data/Walking_1_(BW1).ofs").write_text("1\n2\n"),
+         "expected 3 numbers"),
+        (lambda r: (r / "S1/Image_Data/Walking_1_(C2).avi").write_bytes(b"not a video"),
+         "cannot open video"),
+        (lambda r: (r / "S1/Mocap_Data/Walking_1.xml").write_text("<SEQUENCE>"), "malformed XML"),
+        (lambda r: (r / "S1/Calibration_Data/sizes.toml").write_text('C1 = [320, 240]\n'
+                                                                     'C2 = [640, 480]\n'
+                                                                     'BW1 = [640, 480]\n'),
+         "differs from the calibration"),
+        (lambda r: shutil.rmtree(r / "S1"), "no subject folders"),
+    ],
+)
+def test_info_bad_input_is_one_line_exit_2(tmp_path, damage, message):
+    root = make_tiny_dataset(tmp_path / "d")
+    damage(root)
+    result = run_cli("info", str(root))
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert message in lines[0]
+    assert "Traceback" not in result.stderr

@@ -1,0 +1,70 @@
+"""``voxelmocap info DATASET``: list and validate a HumanEva-layout data set."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "info",
+        help="list subjects, sequences, cameras, frame counts and sync offsets; validate files",
+        description="List what a HumanEva-I-layout data set holds and validate every file read: "
+                    "calibration, sync files, videos (opened, first frame decoded and its size "
+                    "checked), background videos and ground-truth XML.",
+    )
+    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
+    parser.add_argument("--subject", help="only this subject")
+    parser.add_argument("--sequence", help="only this sequence (<Action>_<Trial>)")
+    parser.set_defaults(run=run)
+
+
+def describe(dataset, subject=None, sequence=None) -> list[str]:
+    """Validate and describe a data set; returns the report lines (raises InputError on bad files)."""
+    lines = [f"data set {dataset.root}"]
+    subjects = [dataset.subject_dir(subject).name] if subject else dataset.subjects
+    bdir = dataset.background_dir()
+    for subj in subjects:
+        names = dataset.sequences(subj)
+        if sequence:
+            names = [dataset.sequence(subj, sequence).name]
+        lines.append(f"  {subj}: {len(names)} sequence(s)")
+        for name in names:
+            seq = dataset.sequence(subj, name)
+            rig = seq.rig
+            seq.check_video_sizes()
+            seq.check_backgrounds()
+            counts = seq.video_frame_counts()
+            lines.append(f"    {name}: {seq.n_frames} synchronised frames, "
+                         f"cameras {', '.join(seq.camera_names)}")
+            lines.append(f"      mocap time of frame 1: {seq.common_time:.3f}, "
+                         f"mocap frames per frame: {seq.common_scaling:.4f}")
+            for cam in seq.camera_names:
+                im_st, mc_st, mc_sc = seq.ofs[cam]
+                n_bg = len(seq.background_paths(cam))
+                w, h = rig[cam].size
+                lines.append(f"      {cam:<4s} {w}x{h}  video frames {counts[cam]:>6d}  "
+                             f"ofs ({im_st:g}, {mc_st:g}, {mc_sc:g})  start {seq.starts[cam]:>4d}"
+                             f"  backgrounds {n_bg}")
+            gt = seq.ground_truth()
+            if gt is None:
+                lines.append("      ground truth: none")
+            else:
+                n_valid = int(gt.enabled.all(axis=1).sum())
+                lines.append(f"      ground truth: {len(gt)} frames ({gt.frames.min()}–"
+                             f"{gt.frames.max()}), {n_valid} fully enabled")
+            body = seq.body_file
+            lines.append(f"      subject body file: {body.name if body else 'none'}")
+    if bdir is None:
+        lines.append("  no Background folder")
+    lines.append("all files read are valid")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..io.humaneva import Dataset
+
+    dataset = Dataset(args.dataset)
+    for line in describe(dataset, args.subject, args.sequence):
+        print(line)
+    return 0

@@ -1,0 +1,500 @@
+"""HumanEva-I data sets on disk: layout discovery, ``.ofs`` synchronisation, frames, ground truth.
+
+Layout (``HUMANEVA.md`` §1)::
+
+    <root>/Background/Background_<k>_(<CAM>).avi
+    <root>/<Subject>/Calibration_Data/<CAM>.cal
+    <root>/<Subject>/Image_Data/<Action>_<Trial>_(<CAM>).avi      (or a folder of numbered images)
+    <root>/<Subject>/Sync_Data/<Action>_<Trial>_(<CAM>).ofs
+    <root>/<Subject>/Mocap_Data/<Action>_<Trial>.xml              (ground truth, body_pose XML)
+    <root>/<Subject>/Mocap_Data/<Subject>_body.toml               (subject dimensions, optional)
+
+Folder names are matched case-insensitively (``Calibration_Data`` / ``Calibration_DATA``).
+Cameras are ordered C1, C2, C3, BW1..BW4. Synchronised frame numbers F are 1-based; camera I shows
+frame F at 1-based video frame ``starts[I] + F − 1`` (toolkit ``sync_stream`` / ``cur_image``, §3.2).
+
+>>> ds = Dataset("data/HumanEva")                                   # doctest: +SKIP
+>>> seq = ds.sequence("S1", "Walking_1")                            # doctest: +SKIP
+>>> for F, images in seq.frames(range(6, 10)): ...                  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Iterator
+from functools import cached_property
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..camera import Camera, Rig, sort_camera_names
+from ..errors import InputError
+from ..joints import endpoints_to_landmarks
+from ._atomic import atomic_write_text
+from .body_pose_xml import BodyPoseSequence, read_body_pose_xml, write_body_pose_xml
+
+__all__ = [
+    "BodyPoseSequence",
+    "Dataset",
+    "Sequence",
+    "endpoints_to_landmarks",
+    "read_body_pose_xml",
+    "read_ofs",
+    "sync_starts",
+    "write_body_pose_xml",
+    "write_ofs",
+]
+
+_SEQ_FILE = re.compile(r"^(?P<action>[A-Za-z]+)_(?P<trial>\d+)_\((?P<cam>[A-Za-z0-9]+)\)$")
+_BACKGROUND = re.compile(r"^Background_(?P<k>[^_]+)_\((?P<cam>[A-Za-z0-9]+)\)\.avi$", re.I)
+_IMAGE_SUFFIXES = {".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg"}
+_GRAY_PREFIX = "BW"
+
+
+# ---------------------------------------------------------------------- .ofs and synchronisation
+def read_ofs(path) -> tuple[float, float, float]:
+    """Read a ``.ofs`` sync file: ``(im_st, mc_st, mc_sc)`` (``HUMANEVA.md`` §3.1).
+
+    Raises
+    ------
+    InputError
+        Missing file, not exactly 3 numbers, text, NaN/inf, or a non-positive ``mc_sc``.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="ascii")
+    except FileNotFoundError:
+        raise InputError(path, "sync file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"cannot read sync file ({exc.__class__.__name__})") from None
+    tokens = text.split()
+    if len(tokens) != 3:
+        raise InputError(path, f"expected 3 numbers (im_st, mc_st, mc_sc), found {len(tokens)} "
+                               "values")
+    values = []
+    for token in tokens:
+        try:
+            value = float(token)
+        except ValueError:
+            raise InputError(path, f"value {token[:20]!r} is not a number") from None
+        if not math.isfinite(value):
+            raise InputError(path, f"value {token!r} is not finite")
+        values.append(value)
+    if values[2] <= 0:
+        raise InputError(path, f"mc_sc (mocap frames per image frame) must be > 0, got {values[2]}")
+    return values[0], values[1], values[2]
+
+
+def write_ofs(path, im_st: float, mc_st: float, mc_sc: float) -> None:
+    """Write a ``.ofs`` sync file (three numbers, one per line), atomically."""
+    atomic_write_text(Path(path), f"{im_st:.6f}\n{mc_st:.6f}\n{mc_sc:.6f}\n")
+
+
+def sync_starts(ofs: dict[str, tuple[float, float, float]]):
+    """The toolkit's common timeline (``sync_stream``, ``HUMANEVA.md`` §3.2).
+
+    Parameters
+    ----------
+    ofs : dict of str to (im_st, mc_st, mc_sc)
+        The enabled cameras' sync values, in HumanEva camera order (the first is the reference).
+
+    Returns
+    -------
+    starts : dict of str to int
+        Per camera, the 1-based video frame that shows synchronised frame 1.
+    common_time : float
+        1-based (fractional) mocap frame of synchronised frame 1.
+    common_scaling : float
+        Mocap frames per synchronised frame (mean of the ``mc_sc``).
+    """
+    if not ofs:
+        raise ValueError("no enabled camera to synchronise")
+    names = list(ofs)
+    im0, common_time, common_scaling = ofs[names[0]]
+    start = {names[0]: im0}
+    for name in names[1:]:
+        im_st, mc_st, mc_sc = ofs[name]
+        start[name] = im_st + (common_time - mc_st) / mc_sc
+        common_scaling += mc_sc
+    common_scaling /= len(names)
+    low = min(start.values())
+    common_time -= common_scaling * (low - 1)
+    start = {k: v - low + 1 for k, v in start.items()}
+    if common_time < 1:
+        start = {k: v - (common_time - 1) / common_scaling for k, v in start.items()}
+        common_time = 1.0
+    return {k: int(_matlab_round(v)) for k, v in start.items()}, common_time, common_scaling
+
+
+def _matlab_round(x: float) -> float:
+    # MATLAB's round() goes half away from zero; Python's round() goes half to even.
+    return math.floor(abs(x) + 0.5) * (1 if x >= 0 else -1)
+
+
+# ---------------------------------------------------------------------- video streams
+class _VideoStream:
+    """Frames of one camera: an AVI file (OpenCV) or a folder of numbered images."""
+
+    def __init__(self, path: Path, gray: bool):
+        self.path = path
+        self.gray = gray
+        if path.is_dir():
+            files = [p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES]
+            numbered = []
+            for p in files:
+                digits = re.findall(r"\d+", p.stem)
+                if digits:
+                    numbered.append((int(digits[-1]), p))
+            if not numbered:
+                raise InputError(path, "image folder holds no numbered image files")
+            numbered.sort()
+            self._files = [p for _, p in numbered]
+            self.n_frames = len(self._files)
+        else:
+            self._files = None
+            cap = cv2.VideoCapture(str(path))
+            try:
+                if not cap.isOpened():
+                    raise InputError(path, "cannot open video (missing file or unsupported codec)")
+                self.n_frames = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+            finally:
+                cap.release()
+            if self.n_frames <= 0:
+                raise InputError(path, "video has no frames")
+
+    def _convert(self, image: np.ndarray, index: int) -> np.ndarray:
+        if image is None:
+            raise InputError(self.path, f"cannot decode frame {index + 1}")
+        if self.gray and image.ndim == 3:
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        elif not self.gray and image.ndim == 2:
+            image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+        return image
+
+    def read(self, indices: Iterable[int]) -> Iterator[tuple[int, np.ndarray]]:
+        """Yield ``(index, image)`` for sorted 0-based ``indices``; seeks only when needed."""
+        indices = list(indices)
+        if self._files is not None:
+            for i in indices:
+                if not 0 <= i < self.n_frames:
+                    raise InputError(self.path, f"frame {i + 1} is outside 1..{self.n_frames}")
+                yield i, self._convert(cv2.imread(str(self._files[i]), cv2.IMREAD_UNCHANGED), i)
+            return
+        cap = cv2.VideoCapture(str(self.path))
+        try:
+            if not cap.isOpened():
+                raise InputError(self.path, "cannot open video")
+            pos = 0
+            for i in indices:
+                if not 0 <= i < self.n_frames:
+                    raise InputError(self.path, f"frame {i + 1} is outside 1..{self.n_frames}")
+                if i != pos:
+                    if i > pos and i - pos < 30:
+                        while pos < i:  # decoding forward is exact; seeking may not be
+                            if not cap.grab():
+                                raise InputError(self.path, f"cannot decode frame {pos + 1}")
+                            pos += 1
+                    else:
+                        cap.set(cv2.CAP_PROP_POS_FRAMES, i)
+                        pos = i
+                ok, image = cap.read()
+                pos += 1
+                if not ok:
+                    raise InputError(self.path, f"cannot decode frame {i + 1} of {self.n_frames}")
+                yield i, self._convert(image, i)
+        finally:
+            cap.release()
+
+    def first_frame(self) -> np.ndarray:
+        return next(iter(self.read([0])))[1]
+
+
+def _find_dir(parent: Path, name: str) -> Path | None:
+    """Case-insensitive child directory lookup."""
+    if not parent.is_dir():
+        return None
+    exact = parent / name
+    if exact.is_dir():
+        return exact
+    for child in parent.iterdir():
+        if child.is_dir() and child.name.lower() == name.lower():
+            return child
+    return None
+
+
+def _is_gray(camera: str) -> bool:
+    return camera.upper().startswith(_GRAY_PREFIX)
+
+
+# ---------------------------------------------------------------------- data set and sequences
+class Dataset:
+    """A HumanEva-I-layout data set rooted at ``root``.
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The folder holding ``S1/``, ``S2/`` … and ``Background/``.
+    """
+
+    def __init__(self, root):
+        self.root = Path(root)
+        if not self.root.is_dir():
+            raise InputError(self.root, "data set folder not found")
+        if not self.subjects:
+            raise InputError(self.root, "no subject folders (with Image_Data or Sync_Data) here; "
+                                        "expected the HumanEva-I layout <root>/S1/Image_Data/…")
+
+    @cached_property
+    def subjects(self) -> list[str]:
+        """Subject folder names (those with ``Image_Data`` or ``Sync_Data``), sorted."""
+        out = []
+        for child in sorted(self.root.iterdir()):
+            if child.is_dir() and (_find_dir(child, "Image_Data") or _find_dir(child, "Sync_Data")):
+                out.append(child.name)
+        return out
+
+    def subject_dir(self, subject: str) -> Path:
+        """The subject's folder (case-insensitive name)."""
+        found = _find_dir(self.root, subject)
+        if found is None:
+            raise InputError(self.root, f"unknown subject {subject!r} (have "
+                                        f"{', '.join(self.subjects) or 'none'})")
+        return found
+
+    def sequences(self, subject: str) -> list[str]:
+        """``<Action>_<Trial>`` names of the subject's sequences (from Sync_Data and Image_Data)."""
+        names = set()
+        sdir = self.subject_dir(subject)
+        for sub in ("Sync_Data", "Image_Data"):
+            folder = _find_dir(sdir, sub)
+            if folder is None:
+                continue
+            for p in folder.iterdir():
+                m = _SEQ_FILE.match(p.stem if p.is_file() else p.name)
+                if m:
+                    names.add(f"{m['action']}_{m['trial']}")
+        return sorted(names)
+
+    def sequence(self, subject: str, sequence: str, cameras: Iterable[str] | None = None
+                 ) -> Sequence:
+        """Open one sequence; ``cameras`` restricts it to some camera names (case-insensitive)."""
+        available = self.sequences(subject)
+        match = [s for s in available if s.lower() == sequence.lower()]
+        if not match:
+            raise InputError(self.subject_dir(subject), f"unknown sequence {sequence!r} (have "
+                                                        f"{', '.join(available) or 'none'})")
+        return Sequence(self, self.subject_dir(subject).name, match[0], cameras)
+
+    def background_dir(self) -> Path | None:
+        """The ``Background`` folder, or None."""
+        return _find_dir(self.root, "Background")
+
+
+class Sequence:
+    """One ``<Subject>/<Action>_<Trial>`` sequence: cameras, sync, frames and ground truth.
+
+    Use :meth:`Dataset.sequence` to open one.
+    """
+
+    def __init__(self, dataset: Dataset, subject: str, name: str,
+                 cameras: Iterable[str] | None = None):
+        self.dataset = dataset
+        self.subject = subject
+        self.name = name
+        self.action, self.trial = name.rsplit("_", 1)
+        self.subject_dir = dataset.root / subject
+        sync_dir = _find_dir(self.subject_dir, "Sync_Data")
+        if sync_dir is None:
+            raise InputError(self.subject_dir, "no Sync_Data folder")
+        ofs_files = {}
+        for p in sync_dir.iterdir():
+            m = _SEQ_FILE.match(p.stem)
+            if m and p.suffix.lower() == ".ofs" and f"{m['action']}_{m['trial']}" == name:
+                ofs_files[m["cam"]] = p
+        if not ofs_files:
+            raise InputError(sync_dir, f"no .ofs sync files for {name}")
+        names = sort_camera_names(ofs_files)
+        if cameras is not None:
+            wanted = [c.strip() for c in cameras]
+            upper = {n.upper(): n for n in names}
+            missing = [c for c in wanted if c.upper() not in upper]
+            if missing:
+                raise InputError(sync_dir, f"{name}: no sync file for camera(s) "
+                                           f"{', '.join(missing)} (have {', '.join(names)})")
+            names = sort_camera_names(upper[c.upper()] for c in wanted)
+        self.camera_names: list[str] = names
+        self.ofs = {cam: read_ofs(ofs_files[cam]) for cam in names}
+        self.starts, self.common_time, self.common_scaling = sync_starts(self.ofs)
+
+    # ------------------------------------------------------------------ calibration
+    @cached_property
+    def rig(self) -> Rig:
+        """The cameras' calibration (``Calibration_Data/<CAM>.cal``), in ``camera_names`` order."""
+        cal_dir = _find_dir(self.subject_dir, "Calibration_Data")
+        if cal_dir is None:
+            raise InputError(self.subject_dir, "no Calibration_Data folder")
+        return Rig.from_folder(cal_dir, names=self.camera_names)
+
+    # ------------------------------------------------------------------ images
+    def video_path(self, camera: str) -> Path:
+        """The camera's AVI file or numbered-image folder (the folder wins, as in the toolkit)."""
+        image_dir = _find_dir(self.subject_dir, "Image_Data")
+        if image_dir is None:
+            raise InputError(self.subject_dir, "no Image_Data folder")
+        stem = f"{self.name}_({camera})"
+        folder = image_dir / stem
+        if folder.is_dir():
+            return folder
+        for p in image_dir.iterdir():
+            if p.is_file() and p.stem.lower() == stem.lower() and p.suffix.lower() == ".avi":
+                return p
+        raise InputError(image_dir / f"{stem}.avi", "video not found")
+
+    @cached_property
+    def _streams(self) -> dict[str, _VideoStream]:
+        return {cam: _VideoStream(self.video_path(cam), _is_gray(cam)) for cam in self.camera_names}
+
+    def video_frame_counts(self) -> dict[str, int]:
+        """Number of video frames per camera."""
+        return {cam: s.n_frames for cam, s in self._streams.items()}
+
+    @cached_property
+    def n_frames(self) -> int:
+        """Synchronised frames available in every camera: ``min_I(N_I − starts[I] + 1)``.
+
+        The toolkit's ``n_frames`` returns ``N_I − starts[I]``, one less, which drops the last
+        frame a video does hold; here every decodable frame counts.
+        """
+        counts = self.video_frame_counts()
+        return max(0, min(counts[c] - self.starts[c] + 1 for c in self.camera_names))
+
+    @property
+    def frame_numbers(self) -> np.ndarray:
+        """(n_frames,) 1-based synchronised frame numbers."""
+        return np.arange(1, self.n_frames + 1)
+
+    def check_frames(self, frames: Iterable[int]) -> list[int]:
+        """Validate 1-based synchronised frame numbers; returns them sorted."""
+        frames = sorted(int(f) for f in frames)
+        bad = [f for f in frames if not 1 <= f <= self.n_frames]
+        if bad:
+            raise InputError(f"{self.subject}/{self.name}",
+                             f"frame {bad[0]} is outside the synchronised range 1..{self.n_frames}")
+        return frames
+
+    def check_video_sizes(self) -> None:
+        """Decode each camera's first frame and compare its size with the calibration's."""
+        for cam in self.camera_names:
+            image = self._streams[cam].first_frame()
+            h, w = image.shape[:2]
+            if (w, h) != tuple(self.rig[cam].size):
+                raise InputError(self._streams[cam].path,
+                                 f"frame size {w}x{h} differs from the calibration's "
+                                 f"{self.rig[cam].size[0]}x{self.rig[cam].size[1]}")
+
+    def frames(self, frames: Iterable[int] | None = None
+               ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """Iterate synchronised frames.
+
+        Parameters
+        ----------
+        frames : iterable of int, optional
+            1-based synchronised frame numbers (all by default).
+
+        Yields
+        ------
+        F : int
+            The synchronised frame number.
+        images : dict of str to ndarray
+            Per camera: ``(H, W, 3)`` uint8 BGR for colour cameras, ``(H, W)`` uint8 for BW cameras.
+        """
+        wanted = self.check_frames(self.frame_numbers if frames is None else frames)
+        readers = {cam: self._streams[cam].read([self.starts[cam] + f - 2 for f in wanted])
+                   for cam in self.camera_names}
+        sizes = {cam: tuple(self.rig[cam].size) for cam in self.camera_names}
+        for f in wanted:
+            images = {}
+            for cam, reader in readers.items():
+                _, image = next(reader)
+                if (image.shape[1], image.shape[0]) != sizes[cam]:
+                    raise InputError(self._streams[cam].path,
+                                     f"frame size {image.shape[1]}x{image.shape[0]} differs from "
+                                     f"the calibration's {sizes[cam][0]}x{sizes[cam][1]}")
+                images[cam] = image
+            yield f, images
+
+    def read_frame(self, frame: int) -> dict[str, np.ndarray]:
+        """The images of one synchronised frame ``{camera: image}``."""
+        return next(self.frames([frame]))[1]
+
+    # ------------------------------------------------------------------ backgrounds
+    def background_paths(self, camera: str) -> list[Path]:
+        """``Background/Background_*_(<CAM>).avi`` files of a camera (may be empty)."""
+        bdir = self.dataset.background_dir()
+        if bdir is None:
+            return []
+        out = []
+        for p in sorted(bdir.iterdir()):
+            m = _BACKGROUND.match(p.name)
+            if m and m["cam"].upper() == camera.upper():
+                out.append(p)
+        return out
+
+    def check_backgrounds(self) -> None:
+        """Open every background video of every camera and check its frame size."""
+        for cam in self.camera_names:
+            for path in self.background_paths(cam):
+                image = _VideoStream(path, _is_gray(cam)).first_frame()
+                if (image.shape[1], image.shape[0]) != tuple(self.rig[cam].size):
+                    raise InputError(path, f"frame size {image.shape[1]}x{image.shape[0]} differs "
+                                           f"from the calibration's {self.rig[cam].size}")
+
+    def background_frames(self, camera: str, *, max_frames: int | None = None
+                          ) -> Iterator[np.ndarray]:
+        """Frames of all background videos of a camera (same colour handling as :meth:`frames`)."""
+        count = 0
+        for path in self.background_paths(camera):
+            stream = _VideoStream(path, _is_gray(camera))
+            for _, image in stream.read(range(stream.n_frames)):
+                if max_frames is not None and count >= max_frames:
+                    return
+                count += 1
+                yield image
+
+    # ------------------------------------------------------------------ ground truth
+    @property
+    def ground_truth_path(self) -> Path | None:
+        """``Mocap_Data/<Action>_<Trial>.xml`` when it exists."""
+        mdir = _find_dir(self.subject_dir, "Mocap_Data")
+        if mdir is None:
+            return None
+        for p in mdir.iterdir():
+            if p.is_file() and p.name.lower() == f"{self.name}.xml".lower():
+                return p
+        return None
+
+    def ground_truth(self) -> BodyPoseSequence | None:
+        """The ground-truth poses (body_pose XML), or None when the sequence has none."""
+        path = self.ground_truth_path
+        return None if path is None else read_body_pose_xml(path)
+
+    @property
+    def body_file(self) -> Path | None:
+        """``Mocap_Data/<Subject>_body.toml`` when it exists."""
+        mdir = _find_dir(self.subject_dir, "Mocap_Data")
+        if mdir is None:
+            return None
+        for p in mdir.iterdir():
+            if p.is_file() and p.name.lower() == f"{self.subject}_body.toml".lower():
+                return p
+        return None
+
+    def camera(self, name: str) -> Camera:
+        """One camera of the rig."""
+        return self.rig[name]
+
+    def __repr__(self) -> str:
+        return (f"Sequence({self.subject}/{self.name}, cameras={','.join(self.camera_names)}, "
+                f"starts={self.starts})")
