@@ -75,3 +75,42 @@ def test_endpoints_to_landmarks_merges_means():
     enabled = np.ones(20, bool)
     enabled[E["headProximal"]] = False
     np.testing.assert_allclose(endpoints_to_landmarks(pts, enabled)[0], pts[E["torsoProximal"]])
+
+
+# ---------------------------------------------------------------------- MMTA / MMTP, worked by hand
+def test_mmta_mmtp_hand_worked_with_delta_boundary():
+    from voxelmocap.evaluation import mmta_mmtp
+
+    errors = np.array([
+        [50.0, 100.0, 150.0, 20.0],  # matched: 50, 20 (100 is not < 100) → 50 %, MMTP 35
+        [99.9, 300.0, 400.0, 500.0],  # matched: 99.9 → 25 %, MMTP 99.9
+        [200.0, 200.0, 200.0, 200.0],  # none → 0 %, MMTP undefined (excluded)
+    ])
+    mmta, mmtp, (per_a, per_p) = mmta_mmtp(errors, delta=100.0)
+    np.testing.assert_allclose(per_a, [50.0, 25.0, 0.0])
+    np.testing.assert_allclose(per_p[:2], [35.0, 99.9])
+    assert np.isnan(per_p[2])
+    assert mmta == pytest.approx(25.0)
+    assert mmtp == pytest.approx((35.0 + 99.9) / 2)
+    # a larger δ includes the boundary value 100 in frame 0
+    _, _, (per_a2, _) = mmta_mmtp(errors, delta=100.0001)
+    assert per_a2[0] == pytest.approx(75.0)
+
+
+def test_evaluate_sequence_skips_disabled_frames_and_computes_mu_sigma():
+    from voxelmocap.evaluation import evaluate_sequence
+
+    gt = np.stack([base_pose()] * 3)
+    shifts = np.array([30.0, 70.0, 500.0])
+    est = gt + shifts[:, None, None] * np.array([0.0, 0.0, 1.0])
+    enabled = np.ones((3, 20), bool)
+    enabled[2, 7] = False  # third frame skipped
+    scores, per = evaluate_sequence(est, gt, enabled, delta=50.0)
+    assert scores.frames == 2 and scores.skipped == 1
+    assert scores.mu_mm == pytest.approx(50.0)  # mean of 30 and 70
+    assert scores.sigma_mm == pytest.approx(20.0)  # population std of {30, 70}
+    assert scores.mmta_pct == pytest.approx(50.0)  # frame 1: all matched, frame 2: none
+    assert scores.mmtp_mm == pytest.approx(30.0)
+    assert scores.humaneva_error_mm == pytest.approx(50.0)
+    np.testing.assert_array_equal(per["valid"], [True, True, False])
+    assert np.isnan(per["mean_error"][2])

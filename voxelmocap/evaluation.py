@@ -1,12 +1,30 @@
-"""Pose-error metrics: the HumanEva ``error()`` and (later) MMTA/MMTP, μ and σ. Pure array functions."""
+"""Pose-error metrics: MMTA/MMTP, μ and σ (paper 002 §3) and the HumanEva ``error()``. Pure functions.
+
+* :func:`landmark_errors`: per-frame, per-landmark Euclidean errors ``(F, M)``.
+* :func:`mmta_mmtp`: Multiple Marker Tracking Accuracy (share of landmarks with error ``< δ``, in %)
+  and Precision (mean error of those matched landmarks, mm), each computed per frame and then
+  averaged over frames, as in the paper.
+* :func:`evaluate_sequence`: the paper's Table 1 row for one sequence (μ, σ of the per-frame mean
+  error, MMTP, MMTA, plus the mean HumanEva ``error()``), skipping frames whose ground truth has a
+  disabled endpoint.
+"""
 
 from __future__ import annotations
+
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from .joints import LANDMARK_ENDPOINTS, endpoints_to_landmarks
 
-__all__ = ["humaneva_error", "humaneva_error_position_average"]
+__all__ = [
+    "SequenceScores",
+    "evaluate_sequence",
+    "humaneva_error",
+    "humaneva_error_position_average",
+    "landmark_errors",
+    "mmta_mmtp",
+]
 
 
 def humaneva_error(est, gt, est_enabled=None, gt_enabled=None, *, per_joint: bool = False):
@@ -85,3 +103,132 @@ def humaneva_error_position_average(est, gt):
     le = endpoints_to_landmarks(est)
     lg = endpoints_to_landmarks(gt)
     return np.linalg.norm(le - lg, axis=-1).mean(axis=-1)
+
+
+def landmark_errors(est, gt) -> np.ndarray:
+    """Euclidean error of every landmark of every frame.
+
+    Parameters
+    ----------
+    est, gt : (F, M, 3) array_like
+        Estimated and true landmark positions (mm).
+
+    Returns
+    -------
+    (F, M) ndarray
+        ``|est − gt|`` (mm).
+    """
+    est = np.asarray(est, dtype=float)
+    gt = np.asarray(gt, dtype=float)
+    if est.shape != gt.shape or est.ndim != 3:
+        raise ValueError(f"landmarks must both be (F, M, 3), got {est.shape} and {gt.shape}")
+    return np.linalg.norm(est - gt, axis=-1)
+
+
+def mmta_mmtp(errors, delta: float = 100.0):
+    """MMTA (%) and MMTP (mm) of per-landmark errors, averaged over frames (paper 002 §3).
+
+    A landmark is *matched* when its error is strictly below ``delta``. Per frame, MMTA is the
+    percentage of matched landmarks and MMTP the mean error of the matched ones; the sequence
+    values are the means over frames (MMTP over the frames with at least one match).
+
+    Parameters
+    ----------
+    errors : (F, M) array_like
+        Landmark errors (mm), from :func:`landmark_errors`.
+    delta : float
+        Matching threshold δ (mm).
+
+    Returns
+    -------
+    mmta : float
+        Mean over frames of the matched percentage (NaN for no frames).
+    mmtp : float
+        Mean over frames of the matched landmarks' mean error (NaN when nothing matched).
+    per_frame : tuple of (F,) ndarray
+        ``(mmta_per_frame, mmtp_per_frame)``; MMTP is NaN in frames without a match.
+    """
+    errors = np.asarray(errors, dtype=float)
+    if errors.ndim != 2:
+        raise ValueError(f"errors must be (F, M), got shape {errors.shape}")
+    matched = errors < delta
+    n = matched.sum(axis=1)
+    mmta_f = 100.0 * n / errors.shape[1] if errors.shape[1] else np.full(len(errors), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mmtp_f = np.where(n > 0, np.where(matched, errors, 0.0).sum(axis=1) / n, np.nan)
+    mmta = float(mmta_f.mean()) if len(errors) else float("nan")
+    mmtp = float(np.nanmean(mmtp_f)) if np.any(n > 0) else float("nan")
+    return mmta, mmtp, (mmta_f, mmtp_f)
+
+
+@dataclass(frozen=True)
+class SequenceScores:
+    """One row of the paper's Table 1 (all distances in mm, MMTA in %)."""
+
+    frames: int  #: frames evaluated
+    skipped: int  #: frames skipped because the ground truth had a disabled endpoint
+    mu_mm: float  #: mean over frames of the mean landmark error
+    sigma_mm: float  #: standard deviation over frames of the mean landmark error
+    mmtp_mm: float
+    mmta_pct: float
+    humaneva_error_mm: float  #: mean over frames of the toolkit's error()
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: float = 100.0,
+                      est_enabled=None) -> tuple[SequenceScores, dict]:
+    """Score one sequence of estimated poses against its ground truth.
+
+    Parameters
+    ----------
+    est_endpoints, gt_endpoints : (F, 20, 3) array_like
+        Estimated and true body_pose endpoints (mm) of the same frames.
+    gt_enabled : (F, 20) array_like of bool, optional
+        Ground-truth flags; frames with any disabled endpoint are skipped (and counted).
+    delta : float
+        MMTA/MMTP threshold (mm).
+    est_enabled : (F, 20) array_like of bool, optional
+        Estimate flags (passed to the HumanEva error).
+
+    Returns
+    -------
+    scores : SequenceScores
+    per_frame : dict
+        ``valid`` (F,) bool, ``landmark_errors`` (F, 15) (NaN rows for skipped frames),
+        ``mean_error`` (F,), ``mmta`` (F,), ``mmtp`` (F,), ``humaneva_error`` (F,).
+    """
+    est = np.asarray(est_endpoints, dtype=float)
+    gt = np.asarray(gt_endpoints, dtype=float)
+    if est.shape != gt.shape or est.ndim != 3 or est.shape[1:] != (20, 3):
+        raise ValueError(f"endpoints must both be (F, 20, 3), got {est.shape} and {gt.shape}")
+    n = len(est)
+    enabled = np.ones((n, 20), bool) if gt_enabled is None else np.asarray(gt_enabled, bool)
+    valid = enabled.all(axis=1)
+    errors = np.full((n, 15), np.nan)
+    errors[valid] = landmark_errors(endpoints_to_landmarks(est[valid]),
+                                    endpoints_to_landmarks(gt[valid]))
+    mean_error = errors.mean(axis=1)
+    he = np.full(n, np.nan)
+    if valid.any():
+        he[valid] = humaneva_error(est[valid], gt[valid], None if est_enabled is None else
+                                   np.asarray(est_enabled, bool)[valid], enabled[valid])
+    mmta_f = np.full(n, np.nan)
+    mmtp_f = np.full(n, np.nan)
+    mmta, mmtp, (a, p) = mmta_mmtp(errors[valid], delta)
+    mmta_f[valid] = a
+    mmtp_f[valid] = p
+    m = mean_error[valid]
+    scores = SequenceScores(
+        frames=int(valid.sum()),
+        skipped=int((~valid).sum()),
+        mu_mm=float(m.mean()) if len(m) else float("nan"),
+        sigma_mm=float(m.std()) if len(m) else float("nan"),
+        mmtp_mm=mmtp,
+        mmta_pct=mmta,
+        humaneva_error_mm=float(np.nanmean(he[valid])) if valid.any() else float("nan"),
+    )
+    per_frame = {"valid": valid, "landmark_errors": errors, "mean_error": mean_error,
+                 "mmta": mmta_f, "mmtp": mmtp_f, "humaneva_error": he}
+    return scores, per_frame
