@@ -1,0 +1,51 @@
+import numpy as np
+import pytest
+
+from voxelmocap.errors import InputError
+from voxelmocap.io.results import TrackResult, read_result, write_result
+
+
+def make_result(n=4, seed=0):
+    rng = np.random.default_rng(seed)
+    return TrackResult(
+        frames=np.arange(6, 6 + n), state=rng.normal(size=(n, 27)),
+        landmarks=rng.normal(size=(n, 15, 3)), endpoints=rng.normal(size=(n, 20, 3)),
+        part_scores=rng.random((n, 10, 4)), ess=rng.random((n, 6)), betas=rng.random((n, 6)),
+        seconds=rng.random(n), log_likelihood=rng.normal(size=n),
+        map_state=rng.normal(size=(n, 27)), state_names=[f"s{i}" for i in range(27)],
+        part_names=[f"p{i}" for i in range(10)],
+        attrs={"config": "[filter]\nlayers = 6\n", "seed": 3, "complete": False},
+        checkpoint={"particles": rng.normal(size=(5, 27)), "frame": 4, "estimate": None,
+                    "rng": np.random.default_rng(1).bit_generator.state, "strategy": "apf"},
+    )
+
+
+def test_round_trip(tmp_path):
+    res = make_result()
+    path = tmp_path / "S1" / "Walking_1.h5"
+    write_result(path, res)
+    back = read_result(path)
+    for name in ("frames", "state", "landmarks", "endpoints", "part_scores", "ess", "seconds"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(res, name))
+    assert back.state_names == res.state_names and back.part_names == res.part_names
+    assert back.attrs["seed"] == 3 and back.attrs["complete"] is False
+    assert back.checkpoint["rng"] == res.checkpoint["rng"]
+    np.testing.assert_array_equal(back.checkpoint["particles"], res.checkpoint["particles"])
+    assert back.checkpoint["estimate"] is None and back.checkpoint["frame"] == 4
+    assert not list(path.parent.glob(".*partial*"))  # no temporary left behind
+
+
+def test_corrupt_and_foreign_files(tmp_path):
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"\x89HDF\r\n\x1a\n but truncated")
+    with pytest.raises(InputError, match="cannot read HDF5"):
+        read_result(bad)
+    import h5py
+
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = [1, 2]
+    with pytest.raises(InputError, match="not a voxelmocap result"):
+        read_result(other)
+    with pytest.raises(InputError, match="not found"):
+        read_result(tmp_path / "none.h5")

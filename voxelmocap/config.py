@@ -1,0 +1,233 @@
+"""Typed, validated configuration of the tracking pipeline: the one home of its defaults.
+
+Each stage has a frozen dataclass; :class:`TrackConfig` groups them. A TOML file may set any subset
+of the keys (tables ``[measurement]``, ``[likelihood]``, ``[filter]``, ``[init]``); unknown keys and
+wrong types are refused with an error naming the file and the key. Command-line options override
+the file (:func:`with_overrides`), and the resolved configuration is stored with every result
+(:func:`config_to_toml`), so a run can be reproduced and a resumed run checked against it.
+
+>>> cfg = with_overrides(TrackConfig(), **{"filter.layers": 3})
+>>> cfg.filter.layers, cfg.filter.particles
+(3, 600)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = [
+    "FilterConfig",
+    "InitConfig",
+    "LikelihoodConfig",
+    "MeasurementConfig",
+    "TrackConfig",
+    "config_from_dict",
+    "config_to_dict",
+    "config_to_toml",
+    "load_config",
+    "with_overrides",
+]
+
+
+def _choice(*options, default):
+    return field(default=default, metadata={"choices": options})
+
+
+@dataclass(frozen=True)
+class MeasurementConfig:
+    """Background subtraction, carving and surface smoothing."""
+
+    voxel_size: float = 20.0  #: voxel edge (mm)
+    #: grid corner (mm) and size (voxels); None derives the floor-standing box seen by the cameras
+    grid_origin: tuple[float, float, float] | None = None
+    grid_shape: tuple[int, int, int] | None = None
+    #: a voxel is occupied when inside the silhouette of at least this many of the cameras that see
+    #: it; None = all of them (the strict visual hull)
+    min_views: int | None = None
+    surface_sigma: float = 1.0  #: Gaussian smoothing of the surface voxels (voxels)
+    background: str = _choice("gaussian", "mog2", default="gaussian")
+    background_frames: int = 200  #: background-video frames used to learn the model
+    #: per-camera thresholds and clean-up, passed to ``voxelmocap.silhouette.SilhouetteConfig``
+    silhouette: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class LikelihoodConfig:
+    """Voxel likelihood (paper 002 eqs 7–9)."""
+
+    #: σ² of the Out, DO, Empty and Surf scores
+    variances: tuple[float, float, float, float] = (0.01, 0.01, 0.1, 0.1)
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """Annealed particle filter."""
+
+    layers: int = 6
+    particles: int = 600
+    strategy: str = _choice("apf", "sir", "iapf", default="apf")
+    survival: float = 0.5  #: target share of surviving particles per layer (β by bisection)
+    noise_decay: float = 0.5  #: propagation spread multiplier per layer
+    dynamics: str = _choice("random_walk", "velocity", "elbow", default="random_walk")
+    #: per-frame propagation noise (standard deviations) of the state groups at 60 Hz: half the
+    #: largest expected change in one frame (paper 002 §2.3)
+    translation_std_mm: float = 25.0
+    rotation_std_rad: float = 0.06
+    joint_std_rad: float = 0.15
+
+
+@dataclass(frozen=True)
+class InitConfig:
+    """How tracking starts."""
+
+    #: ``ground_truth``: fit the body to the first frame's ground truth; ``voxels``: search around
+    #: the voxel blob; ``auto``: ground truth when the sequence has it
+    method: str = _choice("auto", "ground_truth", "voxels", default="auto")
+    spread: float = 0.25  #: initial particle spread, as a multiple of the propagation noise
+
+
+@dataclass(frozen=True)
+class TrackConfig:
+    """Everything a tracking run depends on, apart from the data and the seed."""
+
+    measurement: MeasurementConfig = field(default_factory=MeasurementConfig)
+    likelihood: LikelihoodConfig = field(default_factory=LikelihoodConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+    init: InitConfig = field(default_factory=InitConfig)
+
+
+# ---------------------------------------------------------------------- conversion and checks
+def _check_value(value, hint, key: str, source):
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _check_value(value, inner[0], key, source)
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise InputError(source, f"key {key!r} must be true or false, got {value!r}")
+        return value
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise InputError(source, f"key {key!r} must be an integer, got {value!r}")
+        return int(value)
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+            raise InputError(source, f"key {key!r} must be a number, got {value!r}")
+        if not np.isfinite(value):
+            raise InputError(source, f"key {key!r} must be finite, got {value!r}")
+        return float(value)
+    if hint is str:
+        if not isinstance(value, str):
+            raise InputError(source, f"key {key!r} must be a string, got {value!r}")
+        return value
+    if hint is dict or origin is dict:
+        if not isinstance(value, dict):
+            raise InputError(source, f"key {key!r} must be a table, got {value!r}")
+        return dict(value)
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise InputError(source, f"key {key!r} must be a list, got {value!r}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_check_value(v, args[0], key, source) for v in value)
+        if len(value) != len(args):
+            raise InputError(source, f"key {key!r} must have {len(args)} values, got {len(value)}")
+        return tuple(_check_value(v, a, key, source) for v, a in zip(value, args, strict=True))
+    raise TypeError(f"unsupported config type {hint!r}")  # pragma: no cover - programming error
+
+
+def _build(cls, data, prefix: str, source):
+    if not isinstance(data, dict):
+        raise InputError(source, f"[{prefix}] must be a table")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        where = f"{prefix}.{unknown[0]}" if prefix else unknown[0]
+        raise InputError(source, f"unknown key {where!r} (known: {', '.join(sorted(fields))})")
+    kwargs = {}
+    for name, value in data.items():
+        key = f"{prefix}.{name}" if prefix else name
+        hint = hints[name]
+        if dataclasses.is_dataclass(hint):
+            kwargs[name] = _build(hint, value, key, source)
+            continue
+        checked = _check_value(value, hint, key, source)
+        choices = fields[name].metadata.get("choices")
+        if choices and checked not in choices:
+            raise InputError(source, f"key {key!r} must be one of {', '.join(choices)}, "
+                                     f"got {checked!r}")
+        kwargs[name] = checked
+    obj = cls(**kwargs)
+    _check_ranges(obj, prefix, source)
+    return obj
+
+
+def _check_ranges(obj, prefix: str, source) -> None:
+    positive = {"voxel_size", "surface_sigma", "layers", "particles", "translation_std_mm",
+                "rotation_std_rad", "joint_std_rad", "background_frames"}
+    for name in positive:
+        if hasattr(obj, name) and not getattr(obj, name) > 0:
+            raise InputError(source, f"key {prefix + '.' if prefix else ''}{name!r} must be > 0")
+    if isinstance(obj, FilterConfig):
+        if not 0 < obj.survival < 1:
+            raise InputError(source, "key 'filter.survival' must be between 0 and 1")
+        if not 0 < obj.noise_decay <= 1:
+            raise InputError(source, "key 'filter.noise_decay' must be in (0, 1]")
+    if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
+        raise InputError(source, "key 'likelihood.variances' must be positive")
+    if isinstance(obj, MeasurementConfig) and obj.min_views is not None and obj.min_views < 1:
+        raise InputError(source, "key 'measurement.min_views' must be >= 1")
+
+
+def config_from_dict(data: dict, source="config") -> TrackConfig:
+    """Build and validate a :class:`TrackConfig` from nested dicts (e.g. parsed TOML)."""
+    return _build(TrackConfig, data, "", source)
+
+
+def config_to_dict(config) -> dict:
+    """Nested plain dicts/lists of a config, without None values (TOML has no null)."""
+    def strip(value):
+        if isinstance(value, dict):
+            return {k: strip(v) for k, v in value.items() if v is not None}
+        if isinstance(value, (tuple, list)):
+            return [strip(v) for v in value]
+        return value
+
+    return strip(dataclasses.asdict(config))
+
+
+def config_to_toml(config) -> str:
+    """TOML text of a config (the form stored with results)."""
+    import tomli_w
+
+    return tomli_w.dumps(config_to_dict(config))
+
+
+def load_config(path) -> TrackConfig:
+    """Read a TOML config file; keys not given keep their defaults."""
+    from .camera import _load_toml
+
+    path = Path(path)
+    return config_from_dict(_load_toml(path), source=str(path))
+
+
+def with_overrides(config: TrackConfig, **overrides) -> TrackConfig:
+    """A copy with ``"section.key"`` values replaced (None values are ignored)."""
+    data = dataclasses.asdict(config)
+    for dotted, value in overrides.items():
+        if value is None:
+            continue
+        section, key = dotted.split(".", 1)
+        data[section][key] = value
+    return config_from_dict(data, source="options")
