@@ -9,17 +9,50 @@ along z.
 >>> grid = VoxelGrid(origin=(-1000.0, -1000.0, 0.0), voxel_size=20.0, shape=(100, 100, 100))
 >>> grid.centre_of((0, 0, 0))
 array([-990., -990.,   10.])
+
+:meth:`VoxelGrid.from_rig` derives the default capture volume from a camera rig: the floor-standing
+box (floor at Z = 0 up to a head-room height) over the floor area that enough cameras see.
+:meth:`VoxelGrid.check_memory` refuses grids whose per-voxel arrays would not fit in memory, naming
+the size they would need.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import InputError
 
-__all__ = ["VoxelGrid"]
+__all__ = ["VoxelGrid", "available_memory"]
+
+#: Share of the available memory a single grid's arrays may take before :meth:`VoxelGrid.check_memory`
+#: refuses it (the rest is left to the images, the tracker and the other processes).
+MEMORY_SHARE = 0.5
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to new allocations (Linux ``MemAvailable``), or None if unknown."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _format_bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1024 or unit == "TB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} TB"  # pragma: no cover
 
 
 @dataclass(frozen=True)
@@ -64,6 +97,84 @@ class VoxelGrid:
         shape = np.ceil((high - low) / float(voxel_size) - 1e-9).astype(int)
         return cls(origin=tuple(low), voxel_size=voxel_size, shape=tuple(np.maximum(shape, 1)))
 
+    @classmethod
+    def from_rig(cls, rig, voxel_size: float = 20.0, *, height: float = 2200.0,
+                 min_views: int | None = None, margin: float = 0.0, step: float = 50.0,
+                 bytes_per_voxel: float | None = None) -> VoxelGrid:
+        """The floor-standing box seen by the cameras of ``rig``.
+
+        The floor (Z = 0) is sampled on a square lattice of pitch ``step`` around the cameras; a
+        lattice point belongs to the capture area when both it and the point ``height`` above it
+        project inside the images of at least ``min_views`` cameras (in front of them). The grid is
+        the axis-aligned box over the capture area's bounding rectangle (grown by ``margin``), from
+        the floor to ``height``, with its corner at the floor (x, y snapped down to multiples of
+        ``voxel_size``).
+
+        Parameters
+        ----------
+        rig : sequence of Camera
+            The cameras (a :class:`voxelmocap.camera.Rig` or a list).
+        voxel_size : float
+            Voxel edge (mm).
+        height : float
+            Top of the box above the floor (mm); 2200 mm holds a standing adult with raised hands
+            below shoulder level and room to spare.
+        min_views : int, optional
+            Cameras that must see a floor point and the point above it; default all cameras.
+        margin : float
+            Grows the rectangle on every side (mm); may be negative to shrink it.
+        step : float
+            Pitch of the floor lattice (mm).
+        bytes_per_voxel : float, optional
+            When given, :meth:`check_memory` is applied with this per-voxel cost.
+
+        Raises
+        ------
+        InputError
+            When no floor area is seen by ``min_views`` cameras, or the grid would not fit in memory.
+        """
+        cameras = list(rig)
+        if not cameras:
+            raise InputError("rig", "no cameras to derive a grid from")
+        n_req = len(cameras) if min_views is None else int(min_views)
+        if not 1 <= n_req <= len(cameras):
+            raise InputError("min_views", f"must be between 1 and {len(cameras)}, got {min_views!r}")
+        if not height > 0 or not step > 0:
+            raise InputError("grid", f"height and step must be positive, got {height!r}, {step!r}")
+        centres = np.array([c.center for c in cameras], dtype=float)
+        mid = centres[:, :2].mean(axis=0)
+        # Everything a camera can see of the floor near the person lies well within the cameras'
+        # horizontal spread; 1.5× the farthest camera is a generous search square.
+        half = 1.5 * max(float(np.max(np.linalg.norm(centres[:, :2] - mid, axis=1))), 1000.0)
+        n = int(np.ceil(2 * half / step)) + 1
+        xs = mid[0] - half + step * np.arange(n)
+        ys = mid[1] - half + step * np.arange(n)
+        gx, gy = np.meshgrid(xs, ys, indexing="ij")
+        floor = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
+        top = floor + np.array([0.0, 0.0, float(height)])
+        views = np.zeros(len(floor), dtype=np.int32)
+        for cam in cameras:
+            seen = np.ones(len(floor), dtype=bool)
+            for pts in (floor, top):
+                pix, depth = cam.project(pts, return_depth=True)
+                with np.errstate(invalid="ignore"):
+                    seen &= (depth > 0) & cam.in_image(np.nan_to_num(pix, nan=-1.0))
+            views += seen
+        inside = floor[views >= n_req]
+        if len(inside) == 0:
+            raise InputError("rig", f"no floor area is seen by {n_req} of the {len(cameras)} "
+                                    f"cameras up to {height:g} mm; lower min_views or give the "
+                                    "grid explicitly")
+        low = np.array([*(inside[:, :2].min(axis=0) - 0.5 * step - margin), 0.0])
+        high = np.array([*(inside[:, :2].max(axis=0) + 0.5 * step + margin), float(height)])
+        # Snap the horizontal corner to whole voxels so that grids of one rig line up across runs.
+        size = float(voxel_size)
+        low[:2] = np.floor(low[:2] / size) * size
+        grid = cls.from_bounds(low, high, voxel_size)
+        if bytes_per_voxel is not None:
+            grid.check_memory(bytes_per_voxel)
+        return grid
+
     @property
     def n_voxels(self) -> int:
         """Total number of voxels ``nx * ny * nz``."""
@@ -106,8 +217,47 @@ class VoxelGrid:
         index = np.asarray(index)
         return np.all((index >= 0) & (index < np.asarray(self.shape)), axis=-1)
 
+    def nbytes(self, bytes_per_voxel: float = 1.0) -> int:
+        """Bytes needed by arrays costing ``bytes_per_voxel`` per voxel over this grid."""
+        return int(np.ceil(float(self.n_voxels) * float(bytes_per_voxel)))
+
+    def check_memory(self, bytes_per_voxel: float = 1.0, *, what: str = "arrays",
+                     available: int | None = None) -> int:
+        """Refuse grids whose arrays would not fit in memory.
+
+        Parameters
+        ----------
+        bytes_per_voxel : float
+            Cost of the caller's arrays per voxel (bytes), e.g. ``4 * N_C + 2`` for a carver.
+        what : str
+            What the memory is for, quoted in the message.
+        available : int, optional
+            Bytes available; default :func:`available_memory`. The grid may use at most
+            ``MEMORY_SHARE`` of it.
+
+        Returns
+        -------
+        int
+            The bytes needed.
+
+        Raises
+        ------
+        InputError
+            ``"grid: … would need X GB for <what>, only Y GB available"``.
+        """
+        need = self.nbytes(bytes_per_voxel)
+        avail = available_memory() if available is None else int(available)
+        if avail is not None and need > MEMORY_SHARE * avail:
+            nx, ny, nz = self.shape
+            raise InputError("grid", f"{nx}x{ny}x{nz} voxels of {self.voxel_size:g} mm would need "
+                                     f"{_format_bytes(need)} for {what}, but only "
+                                     f"{_format_bytes(avail)} of memory is available; use larger "
+                                     "voxels or a smaller box")
+        return need
+
     def empty(self, dtype=bool) -> np.ndarray:
-        """A zero-filled ``(nx, ny, nz)`` volume of this grid."""
+        """A zero-filled ``(nx, ny, nz)`` volume of this grid (refused if it cannot fit in memory)."""
+        self.check_memory(np.dtype(dtype).itemsize, what="one volume")
         return np.zeros(self.shape, dtype=dtype)
 
     def check_volume(self, volume, name: str = "volume") -> np.ndarray:

@@ -1,0 +1,227 @@
+"""Background models and mask clean-up on images synthesised here.
+
+The scene: a smooth random texture as background, sensor noise, a moving textured ellipse as the
+"person" and a darkened band below it as its cast shadow. The true silhouette is the ellipse
+rasterised by OpenCV independently of the models.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from voxelmocap.errors import InputError
+from voxelmocap.silhouette import (
+    GaussianBackground,
+    Mog2Background,
+    SilhouetteConfig,
+    build_backgrounds,
+    clean_mask,
+    segment,
+    suppress_shadows,
+)
+
+H, W = 120, 160
+NOISE = 3.0
+
+
+def _texture(rng, channels):
+    field = ndimage.gaussian_filter(rng.normal(size=(H, W, channels)), sigma=(6, 6, 0))
+    field = (field - field.min()) / (field.max() - field.min())
+    return 60.0 + 130.0 * field  # 60..190, room for shadows and noise
+
+
+class Scene:
+    """A static textured background with a moving blob and its shadow."""
+
+    def __init__(self, seed=0, channels=3):
+        self.rng = np.random.default_rng(seed)
+        self.channels = channels
+        self.background = _texture(self.rng, channels)
+        self.blob_texture = self.rng.normal(0.0, 8.0, size=(H, W, channels))
+        self.blob_colour = np.array([25.0, 215.0, 70.0])[:channels] if channels == 3 else \
+            np.array([235.0])
+
+    def _noisy(self, img):
+        noisy = img + self.rng.normal(0.0, NOISE, size=img.shape)
+        out = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+        return out[:, :, 0] if self.channels == 1 else out
+
+    def background_frames(self, n):
+        return [self._noisy(self.background) for _ in range(n)]
+
+    def frame(self, t):
+        """Image, true silhouette and shadow region at time t in [0, 1]."""
+        cx, cy = int(40 + 80 * t), 50
+        truth = np.zeros((H, W), np.uint8)
+        cv2.ellipse(truth, (cx, cy), (14, 30), 0.0, 0.0, 360.0, 1, -1)
+        truth = truth.astype(bool)
+        shadow = np.zeros((H, W), np.uint8)
+        cv2.ellipse(shadow, (cx + 20, cy + 40), (30, 8), 0.0, 0.0, 360.0, 1, -1)
+        shadow = shadow.astype(bool) & ~truth
+        img = self.background.copy()
+        img[shadow] *= 0.6
+        img[truth] = self.blob_colour + self.blob_texture[truth]
+        return self._noisy(img), truth, shadow
+
+
+def _scores(mask, truth):
+    tp = np.sum(mask & truth)
+    return tp / max(mask.sum(), 1), tp / truth.sum()
+
+
+def test_gaussian_colour_precision_recall_and_shadow():
+    scene = Scene(seed=1)
+    bg = GaussianBackground.fit(scene.background_frames(40))
+    assert bg.channels == 3 and bg.shape == (H, W)
+    cfg = SilhouetteConfig()
+    for t in (0.0, 0.5, 1.0):
+        img, truth, shadow = scene.frame(t)
+        mask = segment(img, bg, cfg, camera="C1")
+        precision, recall = _scores(mask, truth)
+        assert precision > 0.97 and recall > 0.97, (t, precision, recall)
+        assert np.mean(mask[shadow]) < 0.03
+        # without shadow suppression the shadow is foreground: the suppression does the work
+        raw = bg.foreground(img, shadows=False)
+        assert np.mean(raw[shadow]) > 0.9
+
+
+def test_gaussian_matches_toolkit_formula():
+    """Per-pixel decision equals the toolkit's mixture pdf against 1/(256^3 risk), computed by scipy."""
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(2)
+    sets = [[rng.integers(0, 256, size=(4, 5, 3)).astype(np.uint8) for _ in range(6)]
+            for _ in range(2)]
+    bg = GaussianBackground.fit_sets(sets, min_variance=1e-3)
+    img = rng.integers(0, 256, size=(4, 5, 3)).astype(np.uint8)
+    pdf = np.zeros((4, 5))
+    for frames in sets:
+        x = np.stack(frames).astype(float)
+        mean, var = x.mean(0), np.maximum(x.var(0), 1e-3)
+        pdf += 0.5 * np.prod(norm.pdf(img, mean, np.sqrt(var)), axis=2)
+    for risk in (1.0, 1e-6, 1e6):
+        expected = pdf < 1.0 / (256.0**3 * risk)
+        got = bg.foreground(img, risk=risk)
+        assert np.array_equal(got, expected)
+    loglik, _ = bg.log_likelihood(img)
+    finite = pdf > 1e-30
+    np.testing.assert_allclose(loglik[finite], np.log(pdf[finite]), rtol=1e-4, atol=1e-3)
+
+
+def test_gaussian_grayscale_and_bgr_input_of_a_gray_camera():
+    scene = Scene(seed=3, channels=1)
+    frames = scene.background_frames(30)
+    bg = GaussianBackground.fit(frames)
+    assert bg.channels == 1
+    img, truth, shadow = scene.frame(0.3)
+    mask = segment(img, bg, SilhouetteConfig(), camera="BW1")
+    # gray levels cannot tell a shadow from a dark object: by default the shadow stays foreground
+    assert np.mean(mask[shadow]) > 0.9
+    precision, recall = _scores(mask & ~shadow, truth)
+    assert precision > 0.97 and recall > 0.97, (precision, recall)
+    # on request, shadows are removed on brightness alone (the bright blob survives)
+    mask_sg = segment(img, bg, SilhouetteConfig(shadow_gray=True), camera="BW1")
+    assert np.mean(mask_sg[shadow]) < 0.03
+    precision, recall = _scores(mask_sg, truth)
+    assert precision > 0.97 and recall > 0.97, (precision, recall)
+    # a BW camera decoded from AVI is 3 equal channels: detected as gray, same result
+    bg3 = GaussianBackground.fit([np.repeat(f[:, :, None], 3, axis=2) for f in frames])
+    assert bg3.channels == 1
+    mask3 = segment(np.repeat(img[:, :, None], 3, axis=2), bg3, SilhouetteConfig(), camera="BW1")
+    assert np.array_equal(mask, mask3)
+
+
+def test_per_camera_risk():
+    scene = Scene(seed=4)
+    bg = GaussianBackground.fit(scene.background_frames(20))
+    img, _truth, _ = scene.frame(0.5)
+    cfg = SilhouetteConfig(camera_risk={"C2": 1e300}, min_area=0, open_radius=0, close_radius=0)
+    assert cfg.risk_for("C2") == 1e300 and cfg.risk_for("C1") == 1.0
+    default = segment(img, bg, cfg, camera="C1")
+    strict = segment(img, bg, cfg, camera="C2")
+    assert strict.sum() < default.sum()
+    assert np.all(strict <= default)  # a higher risk only removes foreground
+
+
+def test_mog2_precision_recall():
+    scene = Scene(seed=5)
+    bg = Mog2Background.fit(scene.background_frames(60), learning_rate=0.0)
+    img, truth, shadow = scene.frame(0.7)
+    mask = segment(img, bg, SilhouetteConfig(method="mog2"))
+    precision, recall = _scores(mask, truth)
+    assert precision > 0.9 and recall > 0.9, (precision, recall)
+    assert np.mean(mask[shadow]) < 0.1
+
+
+def test_build_backgrounds_per_camera():
+    scene = Scene(seed=6)
+    frames = {"C1": scene.background_frames(10), "C2": scene.background_frames(10)}
+    models = build_backgrounds(SilhouetteConfig(), ["C1", "C2"], frames)
+    assert set(models) == {"C1", "C2"}
+    assert all(isinstance(m, GaussianBackground) for m in models.values())
+    mixture = build_backgrounds(SilhouetteConfig(), ["C1"], {"C1": [frames["C1"], frames["C2"]]},
+                                sets=True)
+    assert mixture["C1"].n_components == 2
+    mog = build_backgrounds(SilhouetteConfig(method="mog2", camera_var_threshold={"C1": 30.0}),
+                            ["C1"])
+    assert isinstance(mog["C1"], Mog2Background)
+    assert mog["C1"].subtractor.getVarThreshold() == 30.0
+    with pytest.raises(InputError, match="needs background frames"):
+        build_backgrounds(SilhouetteConfig(), ["C3"], frames)
+
+
+def test_suppress_shadows_geometry():
+    bg = np.full((2, 3, 3), [100.0, 150.0, 200.0])
+    img = bg.copy()
+    img[0, 0] *= 0.7                      # pure darkening: shadow
+    img[0, 1] = [200.0, 150.0, 100.0]     # colour change: not a shadow
+    img[0, 2] *= 0.2                      # far too dark: not a shadow
+    img[1, 0] *= 1.0                      # unchanged: not a shadow (alpha above the range)
+    s = suppress_shadows(img, bg)
+    assert s.tolist() == [[True, False, False], [False, False, False]]
+
+
+def test_clean_mask_removes_specks_and_small_blobs_fills_holes():
+    m = np.zeros((60, 60), bool)
+    m[10:40, 10:30] = True
+    m[20:24, 18:22] = False        # hole
+    m[50, 50] = True               # speck (opening)
+    m[2:6, 45:49] = True           # 16-pixel blob (min_area)
+    out = clean_mask(m, open_radius=1, close_radius=0, min_area=20, fill_holes=True)
+    expected = np.zeros_like(m)
+    expected[10:40, 10:30] = True
+    expected[[10, 10, 39, 39], [10, 29, 10, 29]] = False  # opening by the radius-1 disk (a cross)
+    assert np.array_equal(out, expected)
+    both = np.zeros((60, 60), bool)
+    both[5:15, 5:15] = True
+    both[30:50, 30:50] = True
+    only = clean_mask(both, open_radius=0, close_radius=0, min_area=0, largest_only=True)
+    assert only.sum() == 400 and only[40, 40]
+
+
+def test_clean_mask_closing_does_not_stick_to_border():
+    m = np.zeros((40, 40), bool)
+    m[0:20, 0:3] = True
+    out = clean_mask(m, open_radius=0, close_radius=3, min_area=0)
+    assert np.array_equal(out, m)
+
+
+def test_bad_input():
+    with pytest.raises(InputError, match="method"):
+        SilhouetteConfig(method="magic")
+    with pytest.raises(InputError, match="risk"):
+        SilhouetteConfig(risk=-1.0)
+    with pytest.raises(InputError, match="unknown silhouette"):
+        SilhouetteConfig.from_dict({"rsik": 1.0})
+    cfg = SilhouetteConfig(camera_risk={"BW1": 1e6})
+    assert SilhouetteConfig.from_dict(cfg.to_dict()) == cfg
+    bg = GaussianBackground.fit([np.zeros((10, 12, 3), np.uint8)])
+    with pytest.raises(InputError, match="differs"):
+        bg.foreground(np.zeros((12, 10, 3), np.uint8))
+    with pytest.raises(InputError, match="no background frames"):
+        GaussianBackground.fit([])
+    with pytest.raises(InputError, match="frame 2"):
+        GaussianBackground.fit([np.zeros((4, 4), np.uint8), np.zeros((5, 4), np.uint8)])

@@ -1,0 +1,366 @@
+"""Shape-from-silhouette carving: silhouettes of calibrated views → voxel occupancy ``V^R``.
+
+A voxel is occupied when its centre projects inside the silhouette of every camera that sees it
+(:func:`carve`, default), or of at least ``min_views`` cameras (to survive holes in the masks).
+The centre is projected with the full camera model (:meth:`voxelmocap.camera.Camera.project`:
+skew and all five distortion terms); its pixel is ``(round(u), round(v))``, pixel ``(0, 0)`` being
+centred at ``(u, v) = (0, 0)`` (Bouguet). A camera does not see a voxel — and so never carves it —
+when the centre is behind the camera, rounds to a pixel outside the image, or lies outside the
+camera's field of view (see below). A voxel that no camera sees is empty.
+
+Field of view. A polynomial lens model is only valid over the image it was calibrated on: far off
+axis, ``1 + k1 r² + k2 r⁴ + k3 r⁶`` turns around and folds points from outside the field of view back
+into the image. Projections whose undistorted normalised radius exceeds ``FOV_MARGIN`` × the
+largest radius of the image border (or the radius where the radial polynomial stops increasing,
+if smaller) are therefore treated as outside the image.
+
+Cameras are static, so :class:`Carver` projects every voxel centre once per (rig, grid) into an
+``(n_voxels, N_C)`` int32 table of flat pixel indices (-1 = not seen); each frame is then a gather
+and an AND in a parallel numba kernel (:mod:`voxelmocap._carving_kernels`) with an early exit at the
+first empty view. :func:`carve` keeps the last two carvers in a cache. :func:`carve_reference` is
+the plain NumPy implementation the tests compare against.
+
+>>> from voxelmocap.camera import Rig
+>>> rig = Rig.from_folder("calib/humaneva_i_like")                      # doctest: +SKIP
+>>> grid = VoxelGrid.from_rig(rig, 20.0)                                # doctest: +SKIP
+>>> carver = Carver(rig, grid)                                          # doctest: +SKIP
+>>> occupancy = carver.carve(masks)          # masks: (7, 480, 640) bool  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections import OrderedDict
+
+import numpy as np
+
+from . import _carving_kernels as _k
+from .errors import InputError
+from .grid import VoxelGrid
+
+__all__ = [
+    "FOV_MARGIN",
+    "Carver",
+    "EmptySilhouetteWarning",
+    "carve",
+    "carve_reference",
+    "fov_radius",
+    "visible",
+]
+
+#: A projection is trusted up to this factor times the largest undistorted radius of the image
+#: border (beyond it the distortion polynomial may fold points back into the image).
+FOV_MARGIN = 1.05
+
+#: Voxels projected per chunk while building the tables (bounds the temporary memory to ~100 MB).
+_CHUNK = 1 << 19
+
+_CACHE: OrderedDict = OrderedDict()
+_CACHE_SIZE = 2
+
+
+class EmptySilhouetteWarning(UserWarning):
+    """Every silhouette of a frame is empty (no person in view): the occupancy is empty."""
+
+
+def fov_radius(camera) -> float:
+    """Largest trusted undistorted normalised radius of ``camera`` (``FOV_MARGIN`` × the border's).
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera.
+
+    Returns
+    -------
+    float
+        Radius in normalised pinhole coordinates (``x/z``, ``y/z``).
+    """
+    w, h = camera.size
+    # The edge of what rounds into the image: half a pixel beyond the outermost pixel centres.
+    t = np.linspace(0.0, 1.0, 65)
+    us = t * w - 0.5
+    vs = t * h - 0.5
+    border = np.concatenate([
+        np.stack([us, np.full_like(us, -0.5)], axis=1),
+        np.stack([us, np.full_like(us, h - 0.5)], axis=1),
+        np.stack([np.full_like(vs, -0.5), vs], axis=1),
+        np.stack([np.full_like(vs, w - 0.5), vs], axis=1),
+    ])
+    k1, k2, _, _, k3 = camera.kc
+    # Where the radial model stops being monotonic (r·(1 + k1 r² + k2 r⁴ + k3 r⁶) turns around).
+    r = np.linspace(0.0, 10.0, 20001)
+    rd = r * (1.0 + k1 * r**2 + k2 * r**4 + k3 * r**6)
+    turn = np.flatnonzero(np.diff(rd) <= 0)
+    r_fold = float(r[turn[0]]) if len(turn) else np.inf
+    with np.errstate(invalid="ignore", over="ignore"):
+        norm = camera.undistort_pixels(border)
+        r_border = float(np.max(np.linalg.norm(norm, axis=1)))
+    if not np.isfinite(r_border) or r_border > r_fold:
+        # Image corners beyond the fold cannot be undistorted: trust the model up to the fold.
+        return r_fold
+    return min(FOV_MARGIN * r_border, r_fold)
+
+
+def visible(camera, points, *, r_max: float | None = None):
+    """Pixels of ``points`` in ``camera`` and whether the camera sees them.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera.
+    points : (N, 3) array_like
+        World points (mm).
+    r_max : float, optional
+        Trusted normalised radius; default :func:`fov_radius` of the camera.
+
+    Returns
+    -------
+    u, v : (N,) int64 ndarray
+        ``round(u)``, ``round(v)`` (meaningless where not seen).
+    seen : (N,) bool ndarray
+        In front of the camera, within the field of view and rounding into the image.
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    r_max = fov_radius(camera) if r_max is None else r_max
+    xc = camera.world_to_camera(points)
+    z = xc[:, 2]
+    front = z > 0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r2 = (xc[:, 0] ** 2 + xc[:, 1] ** 2) / (z * z)
+        pix = camera.project(points)
+    ok = front & (r2 <= r_max * r_max)
+    pix = np.where(ok[:, None], pix, -1.0)
+    u = np.rint(pix[:, 0]).astype(np.int64)
+    v = np.rint(pix[:, 1]).astype(np.int64)
+    w, h = camera.size
+    seen = ok & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    return u, v, seen
+
+
+def _check_cameras(cameras) -> list:
+    cameras = list(cameras)
+    if not cameras:
+        raise InputError("cameras", "no cameras given")
+    for cam in cameras:
+        if not hasattr(cam, "project") or not hasattr(cam, "size"):
+            raise InputError("cameras", f"{cam!r} is not a Camera")
+    return cameras
+
+
+def _check_min_views(min_views, n_cam: int) -> int | None:
+    if min_views is None:
+        return None
+    try:
+        k = int(min_views)
+    except (TypeError, ValueError):
+        raise InputError("min_views", f"must be an integer, got {min_views!r}") from None
+    if k != min_views or not 1 <= k <= n_cam:
+        raise InputError("min_views", f"must be an integer between 1 and {n_cam} (the number of "
+                                      f"cameras), got {min_views!r}")
+    return k
+
+
+def _mask_buffer(masks, cameras) -> np.ndarray:
+    """Check the masks against the cameras and return them as one flat uint8 buffer."""
+    n_cam = len(cameras)
+    if isinstance(masks, np.ndarray):
+        if masks.ndim != 3:
+            raise InputError("masks", f"expected an (N_C, H, W) array, got shape {masks.shape}")
+        items = masks
+    else:
+        items = list(masks)
+    if len(items) != n_cam:
+        raise InputError("masks", f"got {len(items)} masks for {n_cam} cameras "
+                                  f"({', '.join(getattr(c, 'name', '?') for c in cameras)})")
+    for mask, cam in zip(items, cameras, strict=True):
+        shape = np.shape(mask)
+        w, h = cam.size
+        if shape != (h, w):
+            raise InputError("masks", f"mask of camera {cam.name} is {shape[1] if len(shape) > 1 else '?'}"
+                                      f"x{shape[0] if shape else '?'} pixels but the camera's "
+                                      f"image is {w}x{h}")
+    if isinstance(items, np.ndarray) and items.dtype == np.bool_:
+        return np.ascontiguousarray(items).reshape(-1).view(np.uint8)
+    return np.concatenate([np.asarray(m).reshape(-1) != 0 for m in items]).view(np.uint8)
+
+
+class Carver:
+    """Carve frame after frame for one set of static cameras and one grid.
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+        The cameras, in the order of the masks that will be given (a ``Rig`` works).
+    grid : VoxelGrid
+        The voxel grid.
+    check_memory : bool
+        Refuse (``InputError``) grids whose tables would not fit in memory.
+
+    Attributes
+    ----------
+    tables : (n_voxels, N_C) int32 ndarray, read-only
+        Flat index of each voxel centre's pixel in the concatenated masks, -1 where not seen.
+    """
+
+    def __init__(self, cameras, grid: VoxelGrid, *, check_memory: bool = True):
+        if not isinstance(grid, VoxelGrid):
+            raise InputError("grid", f"expected a VoxelGrid, got {type(grid).__name__}")
+        self.cameras = _check_cameras(cameras)
+        self.grid = grid
+        n_cam = len(self.cameras)
+        if check_memory:
+            # tables + occupancy + the counts of diagnostics; the build adds ~100 MB of chunks
+            grid.check_memory(4 * n_cam + 3, what=f"the voxel→pixel tables of {n_cam} cameras")
+        sizes = [int(c.size[0]) * int(c.size[1]) for c in self.cameras]
+        self._offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        if self._offsets[-1] >= np.iinfo(np.int32).max:
+            raise InputError("cameras", "too many pixels in total for int32 tables")
+        self.tables = self._build_tables()
+        self.tables.flags.writeable = False
+
+    @property
+    def names(self) -> list[str]:
+        """Camera names in table order."""
+        return [c.name for c in self.cameras]
+
+    def _build_tables(self) -> np.ndarray:
+        grid = self.grid
+        n = grid.n_voxels
+        tables = np.empty((n, len(self.cameras)), dtype=np.int32)
+        radii = [fov_radius(c) for c in self.cameras]
+        for start in range(0, n, _CHUNK):
+            flat = np.arange(start, min(start + _CHUNK, n))
+            centres = grid.centre_of(np.stack(np.unravel_index(flat, grid.shape), axis=1))
+            for c, cam in enumerate(self.cameras):
+                u, v, seen = visible(cam, centres, r_max=radii[c])
+                idx = self._offsets[c] + v * int(cam.size[0]) + u
+                tables[start:start + len(flat), c] = np.where(seen, idx, -1)
+        return tables
+
+    def coverage(self) -> np.ndarray:
+        """``(nx, ny, nz)`` uint8: how many cameras see each voxel."""
+        return (self.tables >= 0).sum(axis=1, dtype=np.uint8).reshape(self.grid.shape)
+
+    def counts(self, masks) -> tuple[np.ndarray, np.ndarray]:
+        """Per voxel, cameras that see it and cameras whose silhouette contains it.
+
+        Parameters
+        ----------
+        masks : (N_C, H, W) array_like of bool
+            Silhouettes in camera order.
+
+        Returns
+        -------
+        seen, inside : (nx, ny, nz) uint8 ndarray
+        """
+        buf = _mask_buffer(masks, self.cameras)
+        seen = np.empty(self.grid.n_voxels, dtype=np.uint8)
+        inside = np.empty_like(seen)
+        _k.count_views(self.tables, buf, seen, inside)
+        return seen.reshape(self.grid.shape), inside.reshape(self.grid.shape)
+
+    def carve(self, masks, *, min_views: int | None = None) -> np.ndarray:
+        """Occupancy ``V^R`` of one frame.
+
+        Parameters
+        ----------
+        masks : (N_C, H, W) array_like of bool, or a sequence of (H_c, W_c) masks
+            Silhouettes in camera order; each must match its camera's image size.
+        min_views : int, optional
+            Occupied when inside at least this many silhouettes; default: inside every silhouette
+            of the cameras that see the voxel.
+
+        Returns
+        -------
+        (nx, ny, nz) bool ndarray
+
+        Warns
+        -----
+        EmptySilhouetteWarning
+            When every mask is empty; the occupancy is then empty.
+        """
+        k = _check_min_views(min_views, len(self.cameras))
+        buf = _mask_buffer(masks, self.cameras)
+        out = np.zeros(self.grid.n_voxels, dtype=np.bool_)
+        if not buf.any():
+            warnings.warn("every silhouette is empty (no person in view): empty occupancy",
+                          EmptySilhouetteWarning, stacklevel=2)
+            return out.reshape(self.grid.shape)
+        if k is None:
+            _k.carve_all_views(self.tables, buf, out)
+        else:
+            _k.carve_min_views(self.tables, buf, k, out)
+        return out.reshape(self.grid.shape)
+
+
+def _cached_carver(cameras: list, grid: VoxelGrid) -> Carver:
+    # Cameras are immutable and compared by identity, so the key holds them (and keeps them alive).
+    key = (grid, *cameras)
+    carver = _CACHE.get(key)
+    if carver is None:
+        carver = Carver(cameras, grid)
+        _CACHE[key] = carver
+        while len(_CACHE) > _CACHE_SIZE:
+            _CACHE.popitem(last=False)
+    else:
+        _CACHE.move_to_end(key)
+    return carver
+
+
+def carve(masks, cameras, grid: VoxelGrid, *, min_views: int | None = None) -> np.ndarray:
+    """Carve one frame's silhouettes into an occupancy grid.
+
+    Parameters
+    ----------
+    masks : (N_C, H, W) array_like of bool
+        Silhouettes, one per camera, in the order of ``cameras``.
+    cameras : sequence of Camera
+        The calibrated cameras.
+    grid : VoxelGrid
+        The voxel grid.
+    min_views : int, optional
+        Keep voxels inside at least this many silhouettes; default every camera that sees them.
+
+    Returns
+    -------
+    (nx, ny, nz) bool ndarray
+        ``V^R``.
+
+    Raises
+    ------
+    InputError
+        Mask count or sizes not matching the cameras, a bad ``min_views``, a grid too large.
+
+    Notes
+    -----
+    The per-camera tables of the last two (cameras, grid) pairs are cached; for many frames prefer
+    an explicit :class:`Carver`.
+    """
+    cameras = _check_cameras(cameras)
+    if not isinstance(grid, VoxelGrid):
+        raise InputError("grid", f"expected a VoxelGrid, got {type(grid).__name__}")
+    _check_min_views(min_views, len(cameras))
+    _mask_buffer(masks, cameras)  # validate before the (possibly long) table build
+    return _cached_carver(cameras, grid).carve(masks, min_views=min_views)
+
+
+def carve_reference(masks, cameras, grid: VoxelGrid, *, min_views: int | None = None) -> np.ndarray:
+    """Plain NumPy carving, voxel by voxel and camera by camera (the tests' reference; slow).
+
+    Same parameters, rules and result as :func:`carve`, without tables or kernels.
+    """
+    cameras = _check_cameras(cameras)
+    k = _check_min_views(min_views, len(cameras))
+    items = list(masks)
+    _mask_buffer(masks, cameras)
+    centres = grid.centres()
+    seen = np.zeros(len(centres), dtype=int)
+    inside = np.zeros(len(centres), dtype=int)
+    for mask, cam in zip(items, cameras, strict=True):
+        mask = np.asarray(mask) != 0
+        u, v, ok = visible(cam, centres)
+        seen += ok
+        inside[ok] += mask[v[ok], u[ok]]
+    occ = (inside == seen) & (seen > 0) if k is None else inside >= k
+    return occ.reshape(grid.shape)

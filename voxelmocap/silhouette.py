@@ -1,0 +1,614 @@
+"""Background subtraction: camera images → clean boolean silhouettes.
+
+Two background models, both used frame by frame on decoded images (``(H, W)`` grayscale or
+``(H, W, 3)`` BGR ``uint8``, intensities 0–255):
+
+* :class:`GaussianBackground` — the HumanEva toolkit's model (``HUMANEVA.md`` §7): per pixel and
+  channel a Gaussian (mean, variance) learnt from each background video; the background
+  likelihood is the equal-weight mixture over videos of the product over channels. A pixel is
+  foreground when that likelihood is below ``1 / (256^C · risk)`` (``C`` channels; the toolkit's
+  uniform-foreground decision, on the 0–255 scale). Zero variances are raised to ``min_variance``.
+* :class:`Mog2Background` — OpenCV's ``BackgroundSubtractorMOG2`` (Zivkovic's adaptive
+  Stauffer–Grimson mixture, the reference of paper 002), learnt from background frames and/or online.
+
+:func:`suppress_shadows` removes cast shadows from a Gaussian model's foreground with Horprasert's
+brightness / chromaticity distortion: a shadow darkens the background (brightness ratio α in
+``shadow_brightness``) without changing its colour (normalised chromaticity distortion below
+``shadow_chromaticity``). Grayscale images carry no chromaticity, so there the test is on α alone and
+off by default (``shadow_gray``). :func:`clean_mask` then opens, closes, keeps the largest
+component if asked, removes small 4-connected blobs (the toolkit's ``min_area``) and fills holes.
+
+:class:`SilhouetteConfig` holds every default, with per-camera thresholds; :func:`segment` applies
+a model and the configuration to one image; :func:`build_backgrounds` makes one model per camera.
+
+>>> bg = GaussianBackground.fit(background_frames)          # doctest: +SKIP
+>>> mask = segment(image, bg, SilhouetteConfig(), camera="C1")   # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, fields
+
+import cv2
+import numpy as np
+
+from .errors import InputError
+
+__all__ = [
+    "GaussianBackground",
+    "Mog2Background",
+    "SilhouetteConfig",
+    "build_backgrounds",
+    "clean_mask",
+    "segment",
+    "suppress_shadows",
+]
+
+METHODS = ("gaussian", "mog2")
+
+
+@dataclass(frozen=True)
+class SilhouetteConfig:
+    """Every setting of background subtraction, with its default.
+
+    Parameters
+    ----------
+    method : {"gaussian", "mog2"}
+        Background model; ``"gaussian"`` (the toolkit's) needs background frames.
+    risk : float
+        Gaussian model: foreground iff background likelihood < 1 / (256^C · risk). Larger risk =
+        fewer foreground pixels. HumanEva's toolkit suggests 1 (colour) and up to 1e60–1e100 for
+        its noisy S1 grayscale cameras (on its 0–1 intensity scale).
+    camera_risk : dict of str to float
+        Per-camera overrides of ``risk`` (camera name → risk).
+    min_variance : float
+        Floor of the per-pixel variances (intensity², 0–255 scale). The toolkit uses 1e-3; noise-free
+        or heavily compressed background videos need more (1–4) or every re-encoding wobble
+        becomes foreground.
+    var_threshold : float
+        MOG2 ``varThreshold`` (squared Mahalanobis distance to decide background).
+    camera_var_threshold : dict of str to float
+        Per-camera overrides of ``var_threshold``.
+    mog2_history : int
+        MOG2 history length (frames).
+    mog2_learning_rate : float
+        MOG2 learning rate while segmenting the sequence (-1 = OpenCV's automatic 1/history,
+        0 = frozen after learning from background frames).
+    shadows : bool
+        Remove cast shadows (Gaussian: Horprasert distortions; MOG2: OpenCV's shadow detector).
+    shadow_brightness : (float, float)
+        Range of the brightness ratio α (image / background) that a shadow may have.
+    shadow_chromaticity : float
+        Largest normalised chromaticity distortion ``|I − αE| / |αE|`` of a shadow.
+    shadow_gray : bool
+        Also suppress "shadows" on grayscale cameras on α alone (removes dark clothing too).
+    open_radius, close_radius : int
+        Radii (pixels) of the elliptic opening (speckle removal) and closing (gap filling); 0 = off.
+    min_area : int
+        Remove 4-connected foreground blobs smaller than this (pixels); the toolkit's default is 10.
+    largest_only : bool
+        Keep only the largest 8-connected component (the toolkit's ``one_comp``).
+    fill_holes : bool
+        Fill background regions enclosed by the silhouette.
+    """
+
+    method: str = "gaussian"
+    risk: float = 1.0
+    camera_risk: dict = field(default_factory=dict)
+    min_variance: float = 1e-3
+    var_threshold: float = 16.0
+    camera_var_threshold: dict = field(default_factory=dict)
+    mog2_history: int = 500
+    mog2_learning_rate: float = -1.0
+    shadows: bool = True
+    shadow_brightness: tuple = (0.4, 0.95)
+    shadow_chromaticity: float = 0.08
+    shadow_gray: bool = False
+    open_radius: int = 1
+    close_radius: int = 2
+    min_area: int = 50
+    largest_only: bool = False
+    fill_holes: bool = False
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise InputError("silhouette.method", f"must be one of {', '.join(METHODS)}, "
+                                                  f"got {self.method!r}")
+        for name in ("risk", "min_variance", "var_threshold"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+                raise InputError(f"silhouette.{name}", f"must be a positive number, got {value!r}")
+        for name in ("camera_risk", "camera_var_threshold"):
+            table = getattr(self, name)
+            if not isinstance(table, Mapping):
+                raise InputError(f"silhouette.{name}", "must map camera names to numbers")
+            for cam, value in table.items():
+                if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+                    raise InputError(f"silhouette.{name}.{cam}",
+                                     f"must be a positive number, got {value!r}")
+            object.__setattr__(self, name, dict(table))
+        lo, hi = (float(v) for v in self.shadow_brightness)
+        if not 0 <= lo < hi <= 1.5:
+            raise InputError("silhouette.shadow_brightness", f"need 0 <= low < high, got {lo}, {hi}")
+        object.__setattr__(self, "shadow_brightness", (lo, hi))
+        for name in ("open_radius", "close_radius", "min_area", "mog2_history"):
+            value = getattr(self, name)
+            if int(value) != value or value < 0:
+                raise InputError(f"silhouette.{name}", f"must be a non-negative integer, got {value!r}")
+
+    def risk_for(self, camera: str | None) -> float:
+        """The Gaussian model's risk for ``camera`` (its override, else ``risk``)."""
+        return float(self.camera_risk.get(camera, self.risk)) if camera else float(self.risk)
+
+    def var_threshold_for(self, camera: str | None) -> float:
+        """The MOG2 ``varThreshold`` for ``camera`` (its override, else ``var_threshold``)."""
+        if camera:
+            return float(self.camera_var_threshold.get(camera, self.var_threshold))
+        return float(self.var_threshold)
+
+    def to_dict(self) -> dict:
+        """Plain types (for TOML / HDF5 attributes)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out["shadow_brightness"] = list(self.shadow_brightness)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping, source: str = "silhouette") -> SilhouetteConfig:
+        """Inverse of :meth:`to_dict`; unknown keys raise :class:`InputError` naming ``source``."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise InputError(source, f"unknown silhouette setting(s): {', '.join(unknown)}")
+        kwargs = dict(data)
+        if "shadow_brightness" in kwargs:
+            kwargs["shadow_brightness"] = tuple(kwargs["shadow_brightness"])
+        return cls(**kwargs)
+
+
+# ---------------------------------------------------------------------- images
+def _as_image(image, channels: int | None = None, what: str = "image") -> np.ndarray:
+    """``image`` as (H, W, C) float32 with C = ``channels`` (BGR → gray when the model is gray)."""
+    img = np.asarray(image)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.ndim != 3 or img.shape[2] not in (1, 3):
+        raise InputError(what, f"expected an (H, W) or (H, W, 3) image, got shape {np.shape(image)}")
+    if channels == 1 and img.shape[2] == 3:
+        img = cv2.cvtColor(np.ascontiguousarray(img.astype(np.uint8, copy=False)),
+                           cv2.COLOR_BGR2GRAY)[:, :, None]
+    elif channels == 3 and img.shape[2] == 1:
+        img = np.repeat(img, 3, axis=2)
+    return img.astype(np.float32, copy=False)
+
+
+def _is_gray(image) -> bool:
+    img = np.asarray(image)
+    return img.ndim == 2 or img.shape[2] == 1 or (
+        np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 0], img[..., 2]))
+
+
+def read_video_frames(path, *, max_frames: int | None = None):
+    """Decode the frames of a video with OpenCV (generator of ``(H, W, 3)`` uint8 BGR images)."""
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise InputError(path, "cannot open video")
+    try:
+        n = 0
+        while max_frames is None or n < max_frames:
+            ok, frame = cap.read()
+            if not ok:
+                break
+            n += 1
+            yield frame
+    finally:
+        cap.release()
+    if n == 0:
+        raise InputError(path, "video has no decodable frames")
+
+
+# ---------------------------------------------------------------------- Gaussian model
+class GaussianBackground:
+    """Equal-weight mixture of per-pixel diagonal Gaussians (HumanEva toolkit model).
+
+    Parameters
+    ----------
+    means, variances : sequence of (H, W, C) array_like
+        One mean and variance image (0–255 intensity scale) per background set (mixture component).
+    min_variance : float
+        Floor of the variances (intensity²).
+    """
+
+    def __init__(self, means, variances, *, min_variance: float = 1e-3):
+        means = [np.asarray(m, dtype=np.float32) for m in means]
+        variances = [np.asarray(v, dtype=np.float32) for v in variances]
+        if not means or len(means) != len(variances):
+            raise InputError("background", "need one variance image per mean image (at least one)")
+        means = [m[:, :, None] if m.ndim == 2 else m for m in means]
+        variances = [v[:, :, None] if v.ndim == 2 else v for v in variances]
+        shape = means[0].shape
+        if len(shape) != 3 or shape[2] not in (1, 3) or any(
+                a.shape != shape for a in means + variances):
+            raise InputError("background", "means and variances must all be (H, W, C) images of "
+                                           "one size with C = 1 or 3")
+        self.means = np.stack(means)                                    # (M, H, W, C)
+        self.variances = np.maximum(np.stack(variances), np.float32(min_variance))
+        self.min_variance = float(min_variance)
+        m = len(means)
+        # Per-pixel constant of each component: log(1/M) − ½ Σ_c log(2π σ²).
+        self._inv_var = (1.0 / self.variances).astype(np.float32)
+        self._const = (np.float32(-np.log(m))
+                       - 0.5 * np.log(2 * np.pi * self.variances).sum(axis=3)).astype(np.float32)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Image size ``(H, W)``."""
+        return self.means.shape[1:3]
+
+    @property
+    def channels(self) -> int:
+        """1 (grayscale) or 3 (BGR)."""
+        return self.means.shape[3]
+
+    @property
+    def n_components(self) -> int:
+        """Number of mixture components (background sets)."""
+        return self.means.shape[0]
+
+    @staticmethod
+    def _moments(frames, grayscale: bool | None, source: str):
+        s = s2 = None
+        n = 0
+        for frame in frames:
+            img = np.asarray(frame)
+            if grayscale is None:
+                grayscale = _is_gray(img)
+            x = _as_image(img, 1 if grayscale else 3, what=source).astype(np.float64)
+            if s is None:
+                s = np.zeros_like(x)
+                s2 = np.zeros_like(x)
+            elif x.shape != s.shape:
+                raise InputError(source, f"frame {n + 1} is {x.shape[1]}x{x.shape[0]}, the first "
+                                         f"was {s.shape[1]}x{s.shape[0]}")
+            s += x
+            s2 += x * x
+            n += 1
+        if n == 0:
+            raise InputError(source, "no background frames")
+        mean = s / n
+        var = np.maximum(s2 / n - mean * mean, 0.0)
+        return mean, var
+
+    @classmethod
+    def fit(cls, frames: Iterable, *, min_variance: float = 1e-3,
+            grayscale: bool | None = None) -> GaussianBackground:
+        """One-component model from background frames.
+
+        Parameters
+        ----------
+        frames : iterable of (H, W) or (H, W, 3) uint8 ndarray
+            Background-only images.
+        min_variance : float
+            Floor of the variances.
+        grayscale : bool, optional
+            Model gray levels; default: when the first frame is gray (one channel or equal channels).
+        """
+        mean, var = cls._moments(frames, grayscale, "background frames")
+        return cls([mean], [var], min_variance=min_variance)
+
+    @classmethod
+    def fit_sets(cls, frame_sets: Iterable[Iterable], *, min_variance: float = 1e-3,
+                 grayscale: bool | None = None) -> GaussianBackground:
+        """Mixture model: one component per set of background frames (e.g. per video)."""
+        means, variances = [], []
+        for i, frames in enumerate(frame_sets):
+            mean, var = cls._moments(frames, grayscale, f"background set {i + 1}")
+            grayscale = mean.shape[2] == 1
+            means.append(mean)
+            variances.append(var)
+        if not means:
+            raise InputError("background", "no background sets")
+        return cls(means, variances, min_variance=min_variance)
+
+    @classmethod
+    def from_videos(cls, paths: Iterable, *, min_variance: float = 1e-3,
+                    grayscale: bool | None = None,
+                    max_frames: int | None = None) -> GaussianBackground:
+        """Mixture model with one component per background video (as the toolkit).
+
+        Parameters
+        ----------
+        paths : iterable of path
+            Background videos of one camera (e.g. ``Background_*_(C1).avi``).
+        min_variance : float
+            Floor of the variances.
+        grayscale : bool, optional
+            Default: detected from the first frame (BW cameras decode as three equal channels).
+        max_frames : int, optional
+            Use at most this many frames per video.
+        """
+        paths = list(paths)
+        if not paths:
+            raise InputError("background", "no background videos")
+        sets = (read_video_frames(p, max_frames=max_frames) for p in paths)
+        return cls.fit_sets(sets, min_variance=min_variance, grayscale=grayscale)
+
+    def log_likelihood(self, image) -> tuple[np.ndarray, np.ndarray]:
+        """Background log-likelihood per pixel and the most likely component.
+
+        Parameters
+        ----------
+        image : (H, W) or (H, W, 3) array_like
+            Image on the 0–255 scale.
+
+        Returns
+        -------
+        loglik : (H, W) float32 ndarray
+            ``log Σ_m (1/M) Π_c N(x_c; μ_mc, σ²_mc)``.
+        best : (H, W) int ndarray
+            Index of the component with the largest term.
+        """
+        x = _as_image(image, self.channels)
+        if x.shape[:2] != self.shape:
+            raise InputError("image", f"size {x.shape[1]}x{x.shape[0]} differs from the background "
+                                      f"model's {self.shape[1]}x{self.shape[0]}")
+        terms = np.empty((self.n_components, *self.shape), dtype=np.float32)
+        for m in range(self.n_components):
+            d = x - self.means[m]
+            terms[m] = self._const[m] - 0.5 * np.einsum("ijc,ijc->ij", d * d, self._inv_var[m])
+        best = np.argmax(terms, axis=0)
+        top = np.take_along_axis(terms, best[None], axis=0)[0]
+        if self.n_components == 1:
+            return top, best
+        # log-sum-exp around the best component (stable for very negative log-likelihoods)
+        loglik = top + np.log(np.exp(terms - top[None]).sum(axis=0))
+        return loglik.astype(np.float32), best
+
+    def threshold(self, risk: float = 1.0) -> float:
+        """Log-likelihood threshold ``−log(256^C · risk)`` below which a pixel is foreground."""
+        return -(self.channels * np.log(256.0) + np.log(float(risk)))
+
+    def foreground(self, image, *, risk: float = 1.0, shadows: bool = False,
+                   shadow_brightness=(0.4, 0.95), shadow_chromaticity: float = 0.08,
+                   shadow_gray: bool = False) -> np.ndarray:
+        """Raw foreground mask (no clean-up) of one image.
+
+        Parameters
+        ----------
+        image : (H, W) or (H, W, 3) array_like
+            Image on the 0–255 scale.
+        risk : float
+            Foreground iff likelihood < 1 / (256^C · risk).
+        shadows, shadow_brightness, shadow_chromaticity, shadow_gray
+            Shadow suppression (:func:`suppress_shadows`).
+
+        Returns
+        -------
+        (H, W) bool ndarray
+        """
+        loglik, best = self.log_likelihood(image)
+        mask = loglik < self.threshold(risk)
+        if shadows and (self.channels == 3 or shadow_gray):
+            mean = np.take_along_axis(self.means, best[None, :, :, None], axis=0)[0]
+            mask &= ~suppress_shadows(image, mean, brightness=shadow_brightness,
+                                      chromaticity=shadow_chromaticity)
+        return mask
+
+
+def suppress_shadows(image, background, *, brightness=(0.4, 0.95),
+                     chromaticity: float = 0.08) -> np.ndarray:
+    """Pixels that look like a cast shadow on the background (Horprasert et al. 1999).
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, C) array_like
+        Current image (0–255).
+    background : (H, W) or (H, W, C) array_like
+        Background mean image (0–255), same channels.
+    brightness : (float, float)
+        Range of the brightness distortion α = ⟨I, E⟩ / ⟨E, E⟩ a shadow may have.
+    chromaticity : float
+        Largest normalised chromaticity distortion ``|I − αE| / |αE|`` of a shadow (ignored for
+        one channel, where it is always 0).
+
+    Returns
+    -------
+    (H, W) bool ndarray
+        True where the pixel is a shadow (to be removed from the foreground).
+    """
+    bg = _as_image(background)
+    x = _as_image(image, bg.shape[2])
+    dot = np.einsum("ijc,ijc->ij", x, bg)
+    norm2 = np.einsum("ijc,ijc->ij", bg, bg)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        alpha = np.where(norm2 > 0, dot / norm2, 0.0)
+        resid = x - alpha[:, :, None] * bg
+        cd = np.sqrt(np.einsum("ijc,ijc->ij", resid, resid)) / (alpha * np.sqrt(norm2))
+    shadow = (alpha >= brightness[0]) & (alpha <= brightness[1]) & (norm2 > 0)
+    if bg.shape[2] > 1:
+        shadow &= np.nan_to_num(cd, nan=np.inf) <= chromaticity
+    return shadow
+
+
+# ---------------------------------------------------------------------- MOG2
+class Mog2Background:
+    """OpenCV's ``BackgroundSubtractorMOG2`` with the same ``foreground`` interface.
+
+    Parameters
+    ----------
+    history : int
+        Frames that shape the model.
+    var_threshold : float
+        Squared Mahalanobis distance below which a pixel matches a background mode.
+    shadows : bool
+        Use OpenCV's shadow detector; shadow pixels count as background.
+    learning_rate : float
+        Rate used by :meth:`foreground` (-1 = automatic, 0 = frozen).
+    """
+
+    def __init__(self, *, history: int = 500, var_threshold: float = 16.0, shadows: bool = True,
+                 learning_rate: float = -1.0):
+        self.subtractor = cv2.createBackgroundSubtractorMOG2(int(history), float(var_threshold),
+                                                             bool(shadows))
+        self.learning_rate = float(learning_rate)
+        self.shape: tuple[int, int] | None = None
+
+    def _apply(self, image, rate: float) -> np.ndarray:
+        img = np.ascontiguousarray(np.asarray(image).astype(np.uint8, copy=False))
+        if img.ndim not in (2, 3):
+            raise InputError("image", f"expected an (H, W) or (H, W, 3) image, got shape {img.shape}")
+        if self.shape is None:
+            self.shape = img.shape[:2]
+        elif img.shape[:2] != self.shape:
+            raise InputError("image", f"size {img.shape[1]}x{img.shape[0]} differs from the "
+                                      f"model's {self.shape[1]}x{self.shape[0]}")
+        return self.subtractor.apply(img, learningRate=rate)
+
+    @classmethod
+    def fit(cls, frames: Iterable, **options) -> Mog2Background:
+        """A model trained on background frames (automatic learning rate while training)."""
+        model = cls(**options)
+        n = 0
+        for frame in frames:
+            model._apply(frame, -1.0)
+            n += 1
+        if n == 0:
+            raise InputError("background frames", "no background frames")
+        return model
+
+    def foreground(self, image) -> np.ndarray:
+        """Foreground mask of one image (the model also learns from it at ``learning_rate``).
+
+        Returns
+        -------
+        (H, W) bool ndarray
+            True where MOG2 says foreground (255); shadows (127) are background.
+        """
+        return self._apply(image, self.learning_rate) == 255
+
+
+# ---------------------------------------------------------------------- clean-up
+def _disk(radius: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+
+
+def clean_mask(mask, *, open_radius: int = 1, close_radius: int = 2, min_area: int = 50,
+               largest_only: bool = False, fill_holes: bool = False) -> np.ndarray:
+    """Morphological clean-up of a raw foreground mask.
+
+    Steps, in order: opening (radius ``open_radius``), closing (``close_radius``), largest
+    8-connected component only (``largest_only``), removal of 4-connected blobs smaller than
+    ``min_area`` pixels, filling of enclosed holes (``fill_holes``).
+
+    Parameters
+    ----------
+    mask : (H, W) array_like of bool
+        Raw foreground.
+
+    Returns
+    -------
+    (H, W) bool ndarray
+    """
+    m = np.asarray(mask)
+    if m.ndim != 2:
+        raise InputError("mask", f"expected an (H, W) mask, got shape {m.shape}")
+    m = (m != 0).astype(np.uint8)
+    if open_radius > 0:
+        m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _disk(int(open_radius)))
+    if close_radius > 0:
+        # Pad so that closing does not glue the silhouette to the image border.
+        r = int(close_radius)
+        padded = cv2.copyMakeBorder(m, r, r, r, r, cv2.BORDER_CONSTANT, value=0)
+        m = cv2.morphologyEx(padded, cv2.MORPH_CLOSE, _disk(r))[r:-r, r:-r]
+    if largest_only and m.any():
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+        keep = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+        m = (labels == keep).astype(np.uint8)
+    if min_area > 1 and m.any():
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=4)
+        small = np.flatnonzero(stats[:, cv2.CC_STAT_AREA] < min_area)
+        small = small[small > 0]
+        if len(small):
+            m[np.isin(labels, small)] = 0
+    if fill_holes and m.any():
+        # Background reachable from the border stays; everything else becomes foreground.
+        _, labels, _, _ = cv2.connectedComponentsWithStats(1 - m, connectivity=4)
+        border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+        hole = ~np.isin(labels, border) & (m == 0)
+        m[hole] = 1
+    return m.astype(bool)
+
+
+# ---------------------------------------------------------------------- stage helpers
+def segment(image, background, config: SilhouetteConfig | None = None, *,
+            camera: str | None = None) -> np.ndarray:
+    """Clean silhouette of one image with one camera's background model.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) uint8 ndarray
+        The frame.
+    background : GaussianBackground or Mog2Background
+        That camera's model.
+    config : SilhouetteConfig, optional
+        Thresholds, shadow and clean-up settings (defaults when None).
+    camera : str, optional
+        Camera name, selecting the per-camera thresholds.
+
+    Returns
+    -------
+    (H, W) bool ndarray
+    """
+    config = config or SilhouetteConfig()
+    if isinstance(background, GaussianBackground):
+        raw = background.foreground(
+            image, risk=config.risk_for(camera), shadows=config.shadows,
+            shadow_brightness=config.shadow_brightness,
+            shadow_chromaticity=config.shadow_chromaticity, shadow_gray=config.shadow_gray)
+    else:
+        raw = background.foreground(image)
+    return clean_mask(raw, open_radius=config.open_radius, close_radius=config.close_radius,
+                      min_area=config.min_area, largest_only=config.largest_only,
+                      fill_holes=config.fill_holes)
+
+
+def build_backgrounds(config: SilhouetteConfig, cameras: Iterable[str],
+                      background_frames: Mapping[str, Iterable] | None = None, *,
+                      sets: bool = False) -> dict:
+    """One background model per camera.
+
+    Parameters
+    ----------
+    config : SilhouetteConfig
+        ``method`` selects the model; thresholds are per camera.
+    cameras : iterable of str
+        Camera names.
+    background_frames : mapping of str to iterable, optional
+        Background images per camera (or, with ``sets=True``, an iterable of image sets per camera,
+        one mixture component each). Required for ``"gaussian"``; optional training for ``"mog2"``.
+    sets : bool
+        Whether each camera's entry is a sequence of sets (one per background video).
+
+    Returns
+    -------
+    dict of str to GaussianBackground or Mog2Background
+    """
+    out = {}
+    background_frames = background_frames or {}
+    for name in cameras:
+        frames = background_frames.get(name)
+        if config.method == "gaussian":
+            if frames is None:
+                raise InputError(f"background of {name}",
+                                 "the Gaussian model needs background frames (or use mog2)")
+            fit = GaussianBackground.fit_sets if sets else GaussianBackground.fit
+            out[name] = fit(frames, min_variance=config.min_variance)
+        else:
+            options = dict(history=config.mog2_history, var_threshold=config.var_threshold_for(name),
+                           shadows=config.shadows, learning_rate=config.mog2_learning_rate)
+            if frames is None:
+                out[name] = Mog2Background(**options)
+            else:
+                flat = (f for s in frames for f in s) if sets else frames
+                out[name] = Mog2Background.fit(flat, **options)
+    return out
