@@ -19,6 +19,8 @@ __all__ = ["main"]
 #: Subcommand name → module under ``voxelmocap.commands``. Order is the order of ``--help``.
 COMMANDS: dict[str, str] = {
     "info": "info",
+    "track": "track",
+    "evaluate": "evaluate",
 }
 
 

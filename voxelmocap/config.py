@@ -53,9 +53,9 @@ class MeasurementConfig:
     #: it; None = all of them (the strict visual hull)
     min_views: int | None = None
     surface_sigma: float = 1.0  #: Gaussian smoothing of the surface voxels (voxels)
-    background: str = _choice("gaussian", "mog2", default="gaussian")
-    background_frames: int = 200  #: background-video frames used to learn the model
-    #: per-camera thresholds and clean-up, passed to ``voxelmocap.silhouette.SilhouetteConfig``
+    background_frames: int = 200  #: background-video frames per camera used to learn the model
+    #: background model, thresholds (per camera too) and clean-up: the keys of
+    #: ``voxelmocap.silhouette.SilhouetteConfig`` (e.g. ``method = "mog2"``, ``camera_risk.BW1``)
     silhouette: dict = field(default_factory=dict)
 
 
@@ -186,8 +186,18 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, "key 'filter.noise_decay' must be in (0, 1]")
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
-    if isinstance(obj, MeasurementConfig) and obj.min_views is not None and obj.min_views < 1:
-        raise InputError(source, "key 'measurement.min_views' must be >= 1")
+    if isinstance(obj, MeasurementConfig):
+        if obj.min_views is not None and obj.min_views < 1:
+            raise InputError(source, "key 'measurement.min_views' must be >= 1")
+        if (obj.grid_origin is None) != (obj.grid_shape is None):
+            raise InputError(source, "keys 'measurement.grid_origin' and 'measurement.grid_shape' "
+                                     "go together")
+        from .silhouette import SilhouetteConfig
+
+        try:
+            SilhouetteConfig.from_dict(obj.silhouette, source="measurement.silhouette")
+        except InputError as exc:
+            raise InputError(source, str(exc)) from None
 
 
 def config_from_dict(data: dict, source="config") -> TrackConfig:

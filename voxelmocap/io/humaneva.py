@@ -451,6 +451,16 @@ class Sequence:
                     raise InputError(path, f"frame size {image.shape[1]}x{image.shape[0]} differs "
                                            f"from the calibration's {self.rig[cam].size}")
 
+    def background_sets(self, camera: str, *, max_frames: int | None = None
+                        ) -> list[list[np.ndarray]]:
+        """Per background video of a camera, its first ``max_frames`` frames (a list each)."""
+        out = []
+        for path in self.background_paths(camera):
+            stream = _VideoStream(path, _is_gray(camera))
+            n = stream.n_frames if max_frames is None else min(max_frames, stream.n_frames)
+            out.append([image for _, image in stream.read(range(n))])
+        return out
+
     def background_frames(self, camera: str, *, max_frames: int | None = None
                           ) -> Iterator[np.ndarray]:
         """Frames of all background videos of a camera (same colour handling as :meth:`frames`)."""

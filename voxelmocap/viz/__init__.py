@@ -1,0 +1,1 @@
+"""Pictures for people: plots of errors, overlays on camera images."""
