@@ -19,7 +19,8 @@ def test_defaults_are_the_papers_working_point():
 
 def test_toml_round_trip(tmp_path):
     cfg = with_overrides(TrackConfig(), **{"filter.layers": 3, "measurement.min_views": 6,
-                                           "measurement.grid_shape": (10, 20, 30)})
+                                           "measurement.grid_shape": (10, 20, 30),
+                                           "measurement.grid_origin": (-100.0, -200.0, 0.0)})
     path = tmp_path / "cfg.toml"
     path.write_text(config_to_toml(cfg))
     assert load_config(path) == cfg
@@ -44,6 +45,8 @@ def test_partial_file_keeps_defaults(tmp_path):
         ("[measurement]\nvoxel_size = -5\n", "'voxel_size' must be > 0"),
         ("[filter]\nsurvival = 1.5\n", "survival"),
         ("[filter\n", "invalid TOML"),
+        ("[measurement]\ngrid_shape = [10, 10, 10]\n", "go together"),
+        ("[measurement.silhouette]\nrisky = 3\n", "unknown silhouette setting"),
     ],
 )
 def test_bad_config_names_file_and_key(tmp_path, text, message):
