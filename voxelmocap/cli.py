@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "info": "info",
     "track": "track",
     "evaluate": "evaluate",
+    "sweep": "sweep",
 }
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "MeasurementConfig",
     "TrackConfig",
     "config_from_dict",
+    "config_from_toml",
     "config_to_dict",
     "config_to_toml",
     "load_config",
@@ -222,6 +223,19 @@ def config_to_toml(config) -> str:
     import tomli_w
 
     return tomli_w.dumps(config_to_dict(config))
+
+
+def config_from_toml(text: str, source="config") -> TrackConfig:
+    """Build and validate a :class:`TrackConfig` from TOML text."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"invalid TOML ({exc})") from None
+    return config_from_dict(data, source)
 
 
 def load_config(path) -> TrackConfig:

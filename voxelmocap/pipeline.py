@@ -116,7 +116,11 @@ def build_filter(model, config: TrackConfig, rng):
 
 
 class MeasurementRunner:
-    """The measurement stage of one sequence: background models, grid and carver, built once.
+    """The measurement side of one sequence: its grid and background models, read once.
+
+    Reads the background videos (the only file access), then hands frames to a
+    :class:`~voxelmocap.measurement.MeasurementStage` and wraps the occupancy into the likelihood's
+    :class:`~voxelmocap.likelihood.Measurement`.
 
     Parameters
     ----------
@@ -129,14 +133,13 @@ class MeasurementRunner:
     """
 
     def __init__(self, seq, config: TrackConfig, log=print):
-        from .carving import Carver
         from .grid import VoxelGrid
+        from .measurement import MeasurementStage
         from .silhouette import SilhouetteConfig, build_backgrounds
 
         mc = config.measurement
         self.config = mc
-        self.silhouette = SilhouetteConfig.from_dict(mc.silhouette, source="measurement.silhouette")
-        self.cameras = list(seq.camera_names)
+        silhouette = SilhouetteConfig.from_dict(mc.silhouette, source="measurement.silhouette")
         rig = seq.rig
         if mc.grid_origin is not None:
             self.grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
@@ -144,34 +147,27 @@ class MeasurementRunner:
         else:
             self.grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
         frames = {}
-        for cam in self.cameras:
+        for cam in seq.camera_names:
             paths = seq.background_paths(cam)
             if paths:
                 per_video = max(1, mc.background_frames // len(paths))
                 frames[cam] = seq.background_sets(cam, max_frames=per_video)
-            elif self.silhouette.method == "gaussian":
+            elif silhouette.method == "gaussian":
                 raise InputError(seq.dataset.root / "Background",
                                  f"no Background_*_({cam}).avi for the Gaussian background model; "
                                  "add background videos or set measurement.silhouette.method = "
                                  "\"mog2\"")
-        self.backgrounds = build_backgrounds(self.silhouette, self.cameras, frames, sets=True)
-        self.carver = Carver(list(rig), self.grid)
         if log is not None and not frames:
             log("no background videos: MOG2 learns the background from the sequence itself")
-
-    def masks(self, images: dict) -> np.ndarray:
-        """(N_C, H, W) bool silhouettes of one frame's images (camera order)."""
-        from .silhouette import segment
-
-        return np.stack([segment(images[c], self.backgrounds[c], self.silhouette, camera=c)
-                         for c in self.cameras])
+        backgrounds = build_backgrounds(silhouette, seq.camera_names, frames, sets=True)
+        self.stage = MeasurementStage(rig, self.grid, backgrounds, silhouette,
+                                      min_views=mc.min_views, sigma=mc.surface_sigma)
 
     def measure(self, images: dict, *, return_masks: bool = False):
-        """The likelihood's :class:`~voxelmocap.likelihood.Measurement` of one frame."""
+        """The likelihood's :class:`~voxelmocap.likelihood.Measurement` of one frame's images."""
         from .likelihood import Measurement
 
-        masks = self.masks(images)
-        occupancy = self.carver.carve(masks, min_views=self.config.min_views)
+        masks, occupancy = self.stage.process(images)
         measurement = Measurement(occupancy, self.grid, sigma=self.config.surface_sigma)
         return (measurement, masks) if return_masks else measurement
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..joints import LANDMARK_NAMES
 
-__all__ = ["plot_errors"]
+__all__ = ["plot_errors", "plot_sweep_heatmaps", "sweep_grid"]
 
 
 def _pyplot():
@@ -69,4 +69,61 @@ def plot_errors(sequences, out_dir, *, delta: float = 100.0) -> list[Path]:
         fig.savefig(tmp, dpi=110)
     plt.close(fig)
     paths.append(path)
+    return paths
+
+
+def sweep_grid(rows, voxel_size: float, n_cameras: int):
+    """Mean MMTA over replicates on the ``layers × particles`` grid of one (voxel, cameras) pair.
+
+    Returns
+    -------
+    layers, particles : list of int
+    mmta : (len(layers), len(particles)) ndarray, NaN where no cell finished.
+    """
+    sel = [r for r in rows if r["voxel_size"] == voxel_size and r["n_cameras"] == n_cameras]
+    layers = sorted({r["layers"] for r in sel})
+    particles = sorted({r["particles"] for r in sel})
+    mmta = np.full((len(layers), len(particles)), np.nan)
+    for i, nl in enumerate(layers):
+        for j, npart in enumerate(particles):
+            vals = [r["mmta_pct"] for r in sel if r["layers"] == nl and r["particles"] == npart
+                    and r["mmta_pct"] is not None]
+            if vals:
+                mmta[i, j] = float(np.mean(vals))
+    return layers, particles, mmta
+
+
+def plot_sweep_heatmaps(rows, out_dir, *, tolerance: float = 0.0) -> list[Path]:
+    """One MMTA heatmap per (voxel size, cameras), the cheapest best cell marked in red."""
+    from ..io._atomic import atomic_path
+    from ..sweep import best_cell
+
+    plt = _pyplot()
+    out_dir = Path(out_dir)
+    paths = []
+    for voxel, ncam in sorted({(r["voxel_size"], r["n_cameras"]) for r in rows}):
+        layers, particles, mmta = sweep_grid(rows, voxel, ncam)
+        fig, ax = plt.subplots(figsize=(1.2 * len(particles) + 2.5, 0.9 * len(layers) + 1.8))
+        im = ax.imshow(mmta, origin="lower", cmap="viridis", vmin=0, vmax=100, aspect="auto")
+        for i in range(len(layers)):
+            for j in range(len(particles)):
+                if not np.isnan(mmta[i, j]):
+                    ax.text(j, i, f"{mmta[i, j]:.0f}", ha="center", va="center",
+                            color="white" if mmta[i, j] < 60 else "black", fontsize=8)
+        best = best_cell(mmta, layers, particles, tolerance=tolerance)
+        if best is not None:
+            ax.plot(best[1], best[0], "o", markersize=18, markerfacecolor="none",
+                    markeredgecolor="red", markeredgewidth=2)
+        ax.set_xticks(range(len(particles)), [str(p) for p in particles])
+        ax.set_yticks(range(len(layers)), [str(v) for v in layers])
+        ax.set_xlabel("particles per layer $N_p$")
+        ax.set_ylabel("layers $N_L$")
+        ax.set_title(f"MMTA (%), $s_V$ = {voxel:g} mm, $N_C$ = {ncam}")
+        fig.colorbar(im, ax=ax)
+        fig.tight_layout()
+        path = out_dir / f"mmta_{voxel:g}mm_{ncam}cams.png"
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=100)
+        plt.close(fig)
+        paths.append(path)
     return paths

@@ -1,0 +1,208 @@
+"""Parameter sweeps on Dask: every combination of settings × seeds, as independent tasks.
+
+A *cell* is one combination of annealing layers ``N_L``, particles per layer ``N_p``, voxel size,
+number of cameras and a replicate index. Each cell tracks the sequence with its own seed (derived
+from the cell's parameters, so seeds are distinct and stable across re-runs), evaluates it and
+writes ``SWEEP/cells/<cell>/score.json``. Cells whose score file exists are skipped, so an
+interrupted or extended sweep only runs what is missing. The collected table goes to
+``SWEEP/sweep.csv`` and, per (voxel size, cameras), a heatmap of MMTA over ``N_L × N_p``
+(``SWEEP/mmta_<voxel>mm_<cameras>cams.png``) like the paper's Fig. 4, with the cheapest cell
+(smallest ``N_L · N_p``) that reaches the best MMTA marked.
+
+Tasks run on a local Dask cluster (one single-threaded worker process per core by default) or on
+an existing cluster given by its scheduler address (``dask[distributed]`` is the optional
+``distributed`` extra).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["SweepCell", "collect_rows", "plan_cells", "run_cell", "run_sweep"]
+
+
+@dataclass(frozen=True)
+class SweepCell:
+    """One task of a sweep."""
+
+    layers: int
+    particles: int
+    voxel_size: float
+    n_cameras: int
+    replicate: int
+
+    @property
+    def name(self) -> str:
+        return (f"L{self.layers}_P{self.particles}_V{self.voxel_size:g}_C{self.n_cameras}"
+                f"_r{self.replicate}")
+
+    @property
+    def seed(self) -> int:
+        """A seed distinct for every cell and stable across runs."""
+        ss = np.random.SeedSequence([self.replicate, self.layers, self.particles,
+                                     int(round(self.voxel_size * 1000)), self.n_cameras])
+        return int(ss.generate_state(1)[0])
+
+
+def plan_cells(layers, particles, voxel_sizes, cameras, seeds: int) -> list[SweepCell]:
+    """The Cartesian product of the settings × ``seeds`` replicates."""
+    if seeds < 1:
+        raise InputError("--seeds", "must be at least 1")
+    for name, values in (("--layers", layers), ("--particles", particles),
+                         ("--voxel-size", voxel_sizes), ("--cameras", cameras)):
+        if not values or min(values) <= 0:
+            raise InputError(name, "needs positive values")
+    return [SweepCell(int(nl), int(npart), float(v), int(nc), r)
+            for nl, npart, v, nc, r in itertools.product(layers, particles, voxel_sizes, cameras,
+                                                         range(seeds))]
+
+
+def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, frames=None,
+             base_config_toml: str | None = None, delta: float = 100.0) -> dict:
+    """Track and evaluate one cell (runs in a worker); returns its table row."""
+    from .config import TrackConfig, config_from_toml, with_overrides
+    from .io._atomic import atomic_write_text
+    from .io.humaneva import Dataset
+    from .io.reports import score_against
+    from .pipeline import track_sequence
+
+    cell_dir = Path(out_dir) / "cells" / cell.name
+    score_path = cell_dir / "score.json"
+    if score_path.exists():
+        return json.loads(score_path.read_text())
+    base = config_from_toml(base_config_toml) if base_config_toml else TrackConfig()
+    config = with_overrides(base, **{"filter.layers": cell.layers,
+                                     "filter.particles": cell.particles,
+                                     "measurement.voxel_size": cell.voxel_size})
+    seq = Dataset(dataset).sequence(subject, sequence)
+    if cell.n_cameras > len(seq.camera_names):
+        raise InputError("--cameras", f"{cell.n_cameras} cameras asked, the sequence has "
+                                      f"{len(seq.camera_names)}")
+    cameras = seq.camera_names[: cell.n_cameras]
+    outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
+                             frames=frames, cameras=cameras, seed=cell.seed, progress=False,
+                             overwrite=True, log=lambda *_: None)
+    scored = score_against(outcome.result_path, seq.ground_truth_path, delta=delta)
+    row = dict(asdict(cell), seed=cell.seed, cameras=",".join(cameras),
+               frames=scored.scores.frames, mu_mm=scored.scores.mu_mm,
+               sigma_mm=scored.scores.sigma_mm, mmtp_mm=scored.scores.mmtp_mm,
+               mmta_pct=scored.scores.mmta_pct,
+               humaneva_error_mm=scored.scores.humaneva_error_mm,
+               seconds_per_frame=outcome.seconds_per_frame)
+    atomic_write_text(score_path, json.dumps(row, indent=1, default=float) + "\n")
+    return row
+
+
+def collect_rows(out_dir) -> list[dict]:
+    """Every finished cell's row (from ``cells/*/score.json``)."""
+    rows = []
+    for path in sorted(Path(out_dir).glob("cells/*/score.json")):
+        rows.append(json.loads(path.read_text()))
+    return rows
+
+
+_COLUMNS = ("layers", "particles", "voxel_size", "n_cameras", "replicate", "seed", "cameras",
+            "frames", "mu_mm", "sigma_mm", "mmtp_mm", "mmta_pct", "humaneva_error_mm",
+            "seconds_per_frame")
+
+
+def write_table(out_dir, rows: list[dict]) -> Path:
+    """``sweep.csv``: one row per finished cell."""
+    from .io._atomic import atomic_write_text
+
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=_COLUMNS, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    for row in sorted(rows, key=lambda r: (r["voxel_size"], r["n_cameras"], r["layers"],
+                                           r["particles"], r["replicate"])):
+        writer.writerow(row)
+    path = Path(out_dir) / "sweep.csv"
+    atomic_write_text(path, buf.getvalue())
+    return path
+
+
+def best_cell(mmta: np.ndarray, layers, particles, *, tolerance: float = 0.0):
+    """Index ``(i, j)`` of the cheapest cell whose MMTA is within ``tolerance`` of the best.
+
+    Parameters
+    ----------
+    mmta : (n_layers, n_particles) ndarray
+        Mean MMTA (%) per cell, NaN where missing.
+    layers, particles : sequence of int
+        The axes' values.
+    tolerance : float
+        Percentage points below the best that still count as reaching it.
+    """
+    if np.all(np.isnan(mmta)):
+        return None
+    best = np.nanmax(mmta)
+    candidates = [(layers[i] * particles[j], -mmta[i, j], i, j)
+                  for i in range(len(layers)) for j in range(len(particles))
+                  if not np.isnan(mmta[i, j]) and mmta[i, j] >= best - tolerance]
+    _, _, i, j = min(candidates)
+    return i, j
+
+
+def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particles,
+              voxel_sizes=(20.0,), cameras=(7,), seeds: int = 1, frames=None,
+              base_config_toml: str | None = None, scheduler: str | None = None,
+              n_workers: int | None = None, delta: float = 100.0, tolerance: float = 0.0,
+              log=print) -> tuple[Path, list[Path]]:
+    """Run (or complete) a sweep; returns the CSV path and the heatmap paths."""
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:  # pragma: no cover - depends on the optional extra
+        raise InputError("sweep", "needs dask[distributed]: pip install 'voxelmocap[distributed]'"
+                         ) from None
+    from .io.humaneva import Dataset
+
+    seq = Dataset(dataset).sequence(subject, sequence)
+    if seq.ground_truth_path is None:
+        raise InputError(f"{subject}/{sequence}", "a sweep needs ground truth to score cells")
+    if max(cameras) > len(seq.camera_names):
+        raise InputError("--cameras", f"at most {len(seq.camera_names)} cameras in this sequence")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cells = plan_cells(layers, particles, voxel_sizes, cameras, seeds)
+    todo = [c for c in cells if not (out_dir / "cells" / c.name / "score.json").exists()]
+    log(f"{len(cells)} cells, {len(cells) - len(todo)} already done, {len(todo)} to run")
+    if todo:
+        if scheduler:
+            client = Client(scheduler)
+            cluster = None
+        else:
+            import os
+
+            workers = n_workers or max(1, min(len(todo), os.cpu_count() or 1))
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+            client = Client(cluster)
+        try:
+            futures = [client.submit(run_cell, c, str(Path(dataset).resolve()), subject,
+                                     sequence, str(out_dir.resolve()), frames, base_config_toml,
+                                     delta, key=f"cell-{c.name}", pure=False) for c in todo]
+            from tqdm.auto import tqdm
+
+            with tqdm(total=len(futures), desc="sweep", unit="cell") as bar:
+                for future in as_completed(futures):
+                    future.result()  # re-raises a cell's error here
+                    bar.update(1)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    rows = collect_rows(out_dir)
+    csv_path = write_table(out_dir, rows)
+    from .viz.plots import plot_sweep_heatmaps
+
+    heatmaps = plot_sweep_heatmaps(rows, out_dir, tolerance=tolerance)
+    return csv_path, heatmaps
