@@ -11,6 +11,10 @@ voxels (the centre weight ``g0`` of the normalised 1-D Gaussian kernel), so a fl
 becomes ``exp(-d² / 2σ²)`` at distance ``d`` voxels; values above 1 (creases, thick walls) are clipped
 and every surface voxel is set to 1.
 
+Both functions work on the bounding box of the voxels that matter (grown by the filter's reach)
+and paste the result into an empty volume: outside that box the answer is known to be 0, so the
+result is identical to filtering the whole grid, at a fraction of the cost for a person in a room.
+
 >>> occ = np.zeros((5, 5, 5), bool); occ[1:4, 1:4, 1:4] = True
 >>> int(surface_voxels(occ).sum())  # the 3×3×3 cube minus its centre voxel
 26
@@ -40,9 +44,28 @@ def surface_voxels(occupancy) -> np.ndarray:
     occ = np.asarray(occupancy, dtype=bool)
     if occ.ndim != 3:
         raise ValueError(f"occupancy must be a 3-D volume, got shape {occ.shape}")
+    out = np.zeros(occ.shape, dtype=bool)
+    box = _bounding_box(occ, 1)
+    if box is None:
+        return out
+    sub = occ[box]
     structure = ndimage.generate_binary_structure(3, 1)
-    interior = ndimage.binary_erosion(occ, structure=structure, border_value=0)
-    return occ & ~interior
+    interior = ndimage.binary_erosion(sub, structure=structure, border_value=0)
+    out[box] = sub & ~interior
+    return out
+
+
+def _bounding_box(volume: np.ndarray, pad: int) -> tuple[slice, ...] | None:
+    """Slices of the bounding box of the non-zero voxels grown by ``pad`` (clipped), or None."""
+    lows, highs = [], []
+    for axis in range(volume.ndim):
+        other = tuple(a for a in range(volume.ndim) if a != axis)
+        hit = np.flatnonzero(volume.any(axis=other))
+        if len(hit) == 0:
+            return None
+        lows.append(max(int(hit[0]) - pad, 0))
+        highs.append(min(int(hit[-1]) + pad + 1, volume.shape[axis]))
+    return tuple(slice(lo, hi) for lo, hi in zip(lows, highs, strict=True))
 
 
 def _centre_weight(sigma: float, truncate: float) -> float:
@@ -72,9 +95,17 @@ def smooth_surface(surface, sigma: float = 1.0, *, truncate: float = 4.0) -> np.
     surf = np.asarray(surface, dtype=bool)
     if not sigma > 0:
         raise ValueError(f"sigma must be positive, got {sigma!r}")
-    smoothed = ndimage.gaussian_filter(surf.astype(np.float32), sigma=sigma, mode="constant",
+    out = np.zeros(surf.shape, dtype=np.float32)
+    radius = int(truncate * float(sigma) + 0.5)  # the kernel's reach, as scipy computes it
+    box = _bounding_box(surf, radius)
+    if box is None:
+        return out
+    sub = surf[box]
+    # mode="constant" treats the outside as empty, like the rest of the grid beyond the box
+    smoothed = ndimage.gaussian_filter(sub.astype(np.float32), sigma=sigma, mode="constant",
                                        truncate=truncate)
     smoothed /= _centre_weight(float(sigma), truncate)
     np.clip(smoothed, 0.0, 1.0, out=smoothed)
-    smoothed[surf] = 1.0
-    return smoothed
+    smoothed[sub] = 1.0
+    out[box] = smoothed
+    return out
