@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "track": "track",
     "evaluate": "evaluate",
     "sweep": "sweep",
+    "overlay": "overlay",
 }
 
 

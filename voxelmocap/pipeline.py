@@ -26,6 +26,7 @@ from .errors import InputError
 __all__ = [
     "MeasurementRunner",
     "TrackOutcome",
+    "body_model_for",
     "build_filter",
     "initial_state_from_voxels",
     "noise_std",
@@ -172,7 +173,12 @@ class MeasurementRunner:
         return (measurement, masks) if return_masks else measurement
 
 
-def _choose_body_model(seq, gt):
+def body_model_for(seq, gt=None):
+    """The body model tracking uses for a sequence, and a phrase saying where it came from.
+
+    The subject body file when the data set has one, else limb lengths measured from the ground
+    truth, else the average adult.
+    """
     from .body import BodyModel
 
     if seq.body_file is not None:
@@ -274,7 +280,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         raise InputError(f"{seq.subject}/{seq.name}", "no frames to track")
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
     config_text = config_to_toml(config)
-    model, model_source = _choose_body_model(seq, gt)
+    model, model_source = body_model_for(seq, gt)
     variances = config.likelihood.variances
 
     meta = {

@@ -1,0 +1,87 @@
+"""Drawing the body model and landmarks over camera images (OpenCV, BGR uint8).
+
+:func:`cone_outline_points` samples each truncated elliptic cone as two ellipses (base and top)
+and four generator lines, :func:`draw_pose` projects them (and optional landmarks) through a
+camera's full model and draws them. Pure functions on arrays; writing videos is the command's job.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..joints import LANDMARK_PARENTS
+
+__all__ = ["cone_outline_points", "draw_landmarks", "draw_pose"]
+
+#: BGR colours of the ten parts (torso, head, arms, forearms, thighs, shins).
+PART_COLOURS = ((60, 180, 255), (255, 255, 255), (80, 220, 80), (40, 160, 40), (255, 120, 60),
+                (200, 80, 30), (230, 90, 230), (160, 40, 160), (60, 230, 230), (30, 150, 150))
+
+
+def cone_outline_points(base, axis, u1, u2, H, W, L, R, n: int = 24) -> list[np.ndarray]:
+    """Polylines outlining one truncated elliptic cone.
+
+    Parameters
+    ----------
+    base, axis, u1, u2 : (3,) array_like
+        Base centre (mm), unit axis and unit cross-section axes.
+    H, W : float
+        Base half-axes along ``u1`` and ``u2`` (mm).
+    L : float
+        Length along ``axis`` (mm).
+    R : float
+        Top-to-base radius ratio.
+    n : int
+        Samples per ellipse.
+
+    Returns
+    -------
+    list of (k, 3) ndarray
+        Base ellipse, top ellipse (closed) and four generator segments, in world mm.
+    """
+    base, axis, u1, u2 = (np.asarray(v, dtype=float) for v in (base, axis, u1, u2))
+    t = np.linspace(0, 2 * np.pi, n + 1)
+    ring = np.cos(t)[:, None] * H * u1 + np.sin(t)[:, None] * W * u2
+    top = base + L * axis
+    lines = [base + ring, top + R * ring]
+    for k in range(4):
+        a = k * np.pi / 2
+        d = np.cos(a) * H * u1 + np.sin(a) * W * u2
+        lines.append(np.stack([base + d, top + R * d]))
+    return lines
+
+
+def _polyline(image, camera, points, colour, thickness):
+    pix, depth = camera.project(points, return_depth=True)
+    if np.any(depth <= 0) or not np.all(np.isfinite(pix)):
+        return
+    pts = np.round(pix * 16).astype(np.int32).reshape(-1, 1, 2)  # 4 fractional bits
+    cv2.polylines(image, [pts], False, colour, thickness, cv2.LINE_AA, shift=4)
+
+
+def draw_pose(image, camera, model, state, *, colours=PART_COLOURS, thickness: int = 1):
+    """Draw the cones of one body-model state into ``image`` (in place) and return it."""
+    geo = model.geometry(np.asarray(state, dtype=float)[None], legal=False)
+    for p, part in enumerate(model.parts):
+        for line in cone_outline_points(geo.base[0, p], geo.axis[0, p], geo.u1[0, p],
+                                        geo.u2[0, p], part.H, part.W, part.L, part.R):
+            _polyline(image, camera, line, colours[p % len(colours)], thickness)
+    return image
+
+
+def draw_landmarks(image, camera, landmarks, colour=(0, 0, 255), *, radius: int = 3,
+                   skeleton: bool = True):
+    """Draw ``(15, 3)`` landmarks (and their stick figure) into ``image`` (in place)."""
+    landmarks = np.asarray(landmarks, dtype=float)
+    pix, depth = camera.project(landmarks, return_depth=True)
+    ok = (depth > 0) & np.all(np.isfinite(pix), axis=1)
+    if skeleton:
+        for j, parent in enumerate(LANDMARK_PARENTS):
+            if parent >= 0 and ok[j] and ok[parent]:
+                p0 = tuple(np.round(pix[j]).astype(int))
+                p1 = tuple(np.round(pix[parent]).astype(int))
+                cv2.line(image, p0, p1, colour, 1, cv2.LINE_AA)
+    for j in np.flatnonzero(ok):
+        cv2.circle(image, tuple(np.round(pix[j]).astype(int)), radius, colour, -1, cv2.LINE_AA)
+    return image
