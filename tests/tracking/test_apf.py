@@ -254,3 +254,18 @@ def test_deterministic_for_a_seed():
     c, _ = run_filter("iapf", zs, 1.0, 0.5, 8, 50, 3)
     np.testing.assert_array_equal(a, b)
     assert not np.array_equal(a, c)
+
+
+def test_run_equals_steps_and_calls_back():
+    _, zs = simulate(4, 5, 1.0, 0.5)
+    lls = [gaussian_ll(z, 0.5) for z in zs]
+    a = AnnealedParticleFilter(80, 3, -INF, INF, 1.0, rng=5, resampling="stratified")
+    a.initialise(np.zeros(D), 0.5)
+    seen = []
+    est = a.run(lls, callback=lambda f: seen.append((f.frame, f.layer_betas.copy())))
+    b = AnnealedParticleFilter(80, 3, -INF, INF, 1.0, rng=5, resampling="stratified")
+    b.initialise(np.zeros(D), 0.5)
+    np.testing.assert_array_equal(est, np.array([b.step(fn) for fn in lls]))
+    assert [s[0] for s in seen] == [1, 2, 3, 4, 5] and est.shape == (5, D)
+    with pytest.raises(InputError, match="resampling"):
+        AnnealedParticleFilter(80, 3, -INF, INF, 1.0, resampling="magic")

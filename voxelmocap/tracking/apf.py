@@ -89,6 +89,8 @@ class AnnealedParticleFilter:
         Target ESS fraction for the adaptive β (0.5: about half the particles survive).
     betas : (N_L,) array_like, optional
         Fixed likelihood exponents instead of the adaptive ones, e.g. ``(0.1, 0.4, 1)``.
+        ``betas``, ``alphas``, ``noise_decay`` and ``survival`` do not apply to ``"sir"``
+        (β = 1, full noise).
     alphas : (N_L,) array_like, optional
         Fontmarty's dynamics exponents (e.g. ``(1, 4, 25)``): layer noise std ``noise_std/√α_l``.
         Overrides ``noise_decay``.
