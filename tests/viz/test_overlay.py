@@ -30,4 +30,4 @@ def test_landmarks_land_on_their_projection():
     draw_landmarks(image, cam, lm, (0, 0, 255), skeleton=False)
     pix = np.round(cam.project(lm)).astype(int)
     assert np.all(image[pix[:, 1], pix[:, 0], 2] == 255)
-    assert image[..., 2].astype(bool).sum() < 15 * 50  # only small dots
+    assert image[..., 2].astype(bool).sum() < 15 * 80  # only small (anti-aliased) dots
