@@ -18,6 +18,7 @@ __all__ = ["main"]
 
 #: Subcommand name → module under ``voxelmocap.commands``. Order is the order of ``--help``.
 COMMANDS: dict[str, str] = {
+    "demo": "demo",
     "info": "info",
     "track": "track",
     "evaluate": "evaluate",
