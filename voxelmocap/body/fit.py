@@ -1,0 +1,171 @@
+"""Inverse kinematics: the legal state whose landmarks best match given landmarks.
+
+:func:`fit_to_landmarks` starts from a closed-form guess (segment directions turned into the
+Euler angles of :mod:`voxelmocap.body.kinematics`, see :func:`analytic_state`) and refines it by
+bounded least squares (:func:`scipy.optimize.least_squares`, trust-region reflective) on the 45
+landmark coordinates. It is used to start tracking from the ground truth of the first frame, as
+the papers do.
+
+>>> from voxelmocap.body import BodyModel
+>>> model = BodyModel()
+>>> x = model.default_state(); x[17] = 1.0           # bend the left elbow
+>>> bool(np.allclose(fit_to_landmarks(model, model.landmarks(x[None])[0]), x, atol=1e-4))
+True
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..errors import InputError
+from .kinematics import (
+    HEAD_TOP,
+    L_ANKLE,
+    L_ELBOW,
+    L_HIP,
+    L_KNEE,
+    L_SHOULDER,
+    L_WRIST,
+    PELVIS,
+    R_ANKLE,
+    R_ELBOW,
+    R_HIP,
+    R_KNEE,
+    R_SHOULDER,
+    R_WRIST,
+    THORAX,
+    forward_kinematics,
+    rotation_x,
+    rotation_y,
+)
+
+__all__ = ["analytic_state", "fit_to_landmarks"]
+
+
+def _unit(v):
+    n = np.linalg.norm(v)
+    return v / n if n > 1e-12 else v * 0.0
+
+
+def _frame(x_dir, z_dir):
+    """Rotation with columns (x, y, z): z along ``z_dir``, x as close to ``x_dir`` as possible."""
+    z = _unit(z_dir)
+    x = _unit(x_dir - np.dot(x_dir, z) * z)
+    if not np.any(x):  # degenerate: pick any perpendicular
+        x = _unit(np.cross(z, [0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.cross(z, [1.0, 0, 0]))
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=1)
+
+
+def _xyz_euler(m):
+    """Angles (a, b, c) with m = Rx(a) Ry(b) Rz(c)."""
+    b = np.arcsin(np.clip(m[0, 2], -1.0, 1.0))
+    a = np.arctan2(-m[1, 2], m[2, 2])
+    c = np.arctan2(-m[0, 1], m[0, 0])
+    return a, b, c
+
+
+def _limb_angles(parent, top, mid, end, sign, hinge_sign, low, high):
+    """flex, abd, rot, hinge of a 3-DoF + 1-DoF limb from three joint positions.
+
+    ``low``/``high`` are the (4,) ranges of (flex, abd, rot, hinge); of the two Euler solutions
+    for the limb direction, the one closest to legal is taken.
+    """
+    v = parent.T @ _unit(mid - top)                     # (−sin b, sin f cos b, −cos f cos b)
+    b0 = np.arcsin(np.clip(-v[0], -1.0, 1.0))
+    f0 = np.arctan2(v[1], -v[2])
+    best, best_bad = None, np.inf
+    for f, b in ((f0, b0), (f0 + np.pi, np.pi - b0), (f0 - np.pi, np.pi - b0),
+                 (f0 + np.pi, -np.pi - b0), (f0 - np.pi, -np.pi - b0)):
+        q = (rotation_x(f) @ rotation_y(b)).T @ (parent.T @ _unit(end - mid))
+        hinge = np.arccos(np.clip(-q[2], -1.0, 1.0))
+        # elbow: q = (−sin r sin e, cos r sin e, ·); knee: q = (sin r sin k, −cos r sin k, ·)
+        r = np.arctan2(-hinge_sign * q[0], hinge_sign * q[1]) if np.sin(hinge) > 1e-6 else 0.0
+        cand = np.array([f, sign * b, -sign * r, hinge])
+        bad = np.sum(np.maximum(low - cand, 0.0) + np.maximum(cand - high, 0.0))
+        if bad < best_bad - 1e-12:
+            best, best_bad = cand, bad
+    return best
+
+
+def analytic_state(model, landmarks) -> np.ndarray:
+    """Closed-form state (27,) from landmarks (15, 3), clipped into the legal ranges.
+
+    Exact for landmarks of the model's own skeleton when the hips have a drop below the pelvis;
+    otherwise a starting point for :func:`fit_to_landmarks`.
+    """
+    lm = np.asarray(landmarks, dtype=float)
+    d = model.dimensions
+    x = np.zeros(27)
+    pelvis, thorax = lm[PELVIS], lm[THORAX]
+    x[0:3] = pelvis
+    lateral = lm[R_HIP] - lm[L_HIP]
+    hip_mid = 0.5 * (lm[R_HIP] + lm[L_HIP])
+    drop = 0.5 * (d.hip_drop[0] + d.hip_drop[1])
+    up = pelvis - hip_mid if drop > 5.0 else thorax - pelvis
+    root = _frame(lateral, up)
+    # root = Rz(yaw) Rx(−pitch) Ry(roll): row 2 = (−cos a sin r, sin a, cos a cos r), a = −pitch
+    a = np.arcsin(np.clip(root[2, 1], -1.0, 1.0))
+    x[3] = np.arctan2(-root[0, 1], root[1, 1])
+    x[4] = -a
+    x[5] = np.arctan2(-root[2, 0], root[2, 2])
+    torso = _frame(lm[R_SHOULDER] - lm[L_SHOULDER], thorax - pelvis)
+    wa, wb, wc = _xyz_euler(root.T @ torso)
+    x[6:9] = (-wa, wb, wc)
+    v = torso.T @ _unit(lm[HEAD_TOP] - thorax)         # (sin b, −sin a cos b, cos a cos b)
+    x[9] = -np.arctan2(-v[1], v[2])
+    x[10] = np.arcsin(np.clip(v[0], -1.0, 1.0))
+    lo, hi = model.low, model.high
+    for parent, (a, b, c), sign, hinge_sign, dofs, hinge in (
+            (torso, (L_SHOULDER, L_ELBOW, L_WRIST), 1.0, 1.0, 11, 17),
+            (torso, (R_SHOULDER, R_ELBOW, R_WRIST), -1.0, 1.0, 14, 18),
+            (root, (L_HIP, L_KNEE, L_ANKLE), 1.0, -1.0, 19, 25),
+            (root, (R_HIP, R_KNEE, R_ANKLE), -1.0, -1.0, 22, 26)):
+        idx = [dofs, dofs + 1, dofs + 2, hinge]
+        x[idx] = _limb_angles(parent, lm[a], lm[b], lm[c], sign, hinge_sign, lo[idx], hi[idx])
+    return np.clip(x, model.low, model.high)
+
+
+def fit_to_landmarks(model, landmarks, *, initial=None, max_nfev: int = 2000) -> np.ndarray:
+    """Legal state whose landmarks are closest (least squares) to ``landmarks``.
+
+    Parameters
+    ----------
+    model : BodyModel
+    landmarks : (15, 3) array_like
+        Target landmarks (mm) in ``LANDMARK_NAMES`` order, all finite.
+    initial : (27,) array_like, optional
+        Extra starting state (e.g. the previous frame's); the closed-form guess of
+        :func:`analytic_state` is always tried too and the better fit is returned.
+    max_nfev : int
+        Function-evaluation budget per start.
+
+    Returns
+    -------
+    (27,) float64 ndarray
+        A state inside ``[model.low, model.high]``.
+    """
+    lm = np.asarray(landmarks, dtype=float)
+    if lm.shape != (15, 3):
+        raise InputError("landmarks", f"expected shape (15, 3), got {lm.shape}")
+    if not np.all(np.isfinite(lm)):
+        raise InputError("landmarks", "landmarks must be finite")
+    starts = [analytic_state(model, lm)]
+    if initial is not None:
+        starts.append(np.clip(model.check(initial, legal=False)[0], model.low, model.high))
+    low, high = model.low, model.high
+    # least_squares needs low < high strictly; pin degenerate ranges by a hair.
+    high_ls = np.where(high > low, high, low + 1e-12)
+    target = lm.ravel()
+
+    def residual(x):
+        return forward_kinematics(x[None], model.dimensions).joints.ravel() - target
+
+    best, best_cost = None, np.inf
+    for x0 in starts:
+        sol = least_squares(residual, x0, bounds=(low, high_ls), method="trf", x_scale="jac",
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev)
+        if sol.cost < best_cost:
+            best, best_cost = sol.x, sol.cost
+    return np.clip(best, low, high)
