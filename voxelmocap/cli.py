@@ -24,6 +24,8 @@ COMMANDS: dict[str, str] = {
     "evaluate": "evaluate",
     "sweep": "sweep",
     "overlay": "overlay",
+    "dump": "dump",
+    "view": "view",
 }
 
 

@@ -389,10 +389,27 @@ class GaussianBackground:
         loglik, best = self.log_likelihood(image)
         mask = loglik < self.threshold(risk)
         if shadows and (self.channels == 3 or shadow_gray):
-            mean = np.take_along_axis(self.means, best[None, :, :, None], axis=0)[0]
-            mask &= ~suppress_shadows(image, mean, brightness=shadow_brightness,
-                                      chromaticity=shadow_chromaticity)
+            # only foreground pixels can turn out to be shadows: test those alone (a few percent)
+            rows, cols = np.nonzero(mask)
+            x = _as_image(image, self.channels)[rows, cols]
+            mean = self.means[best[rows, cols], rows, cols]
+            shadow = _shadow_pixels(x, mean, shadow_brightness, shadow_chromaticity)
+            mask[rows[shadow], cols[shadow]] = False
         return mask
+
+
+def _shadow_pixels(x, bg, brightness, chromaticity) -> np.ndarray:
+    """Shadow test on (K, C) pixel values ``x`` against background means ``bg`` (see below)."""
+    dot = np.einsum("kc,kc->k", x, bg)
+    norm2 = np.einsum("kc,kc->k", bg, bg)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        alpha = np.where(norm2 > 0, dot / norm2, 0.0)
+        resid = x - alpha[:, None] * bg
+        cd = np.sqrt(np.einsum("kc,kc->k", resid, resid)) / (alpha * np.sqrt(norm2))
+    shadow = (alpha >= brightness[0]) & (alpha <= brightness[1]) & (norm2 > 0)
+    if bg.shape[1] > 1:
+        shadow &= np.nan_to_num(cd, nan=np.inf) <= chromaticity
+    return shadow
 
 
 def suppress_shadows(image, background, *, brightness=(0.4, 0.95),
@@ -418,16 +435,9 @@ def suppress_shadows(image, background, *, brightness=(0.4, 0.95),
     """
     bg = _as_image(background)
     x = _as_image(image, bg.shape[2])
-    dot = np.einsum("ijc,ijc->ij", x, bg)
-    norm2 = np.einsum("ijc,ijc->ij", bg, bg)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        alpha = np.where(norm2 > 0, dot / norm2, 0.0)
-        resid = x - alpha[:, :, None] * bg
-        cd = np.sqrt(np.einsum("ijc,ijc->ij", resid, resid)) / (alpha * np.sqrt(norm2))
-    shadow = (alpha >= brightness[0]) & (alpha <= brightness[1]) & (norm2 > 0)
-    if bg.shape[2] > 1:
-        shadow &= np.nan_to_num(cd, nan=np.inf) <= chromaticity
-    return shadow
+    h, w, c = bg.shape
+    return _shadow_pixels(x.reshape(-1, c), bg.reshape(-1, c), brightness,
+                          chromaticity).reshape(h, w)
 
 
 # ---------------------------------------------------------------------- MOG2
