@@ -19,6 +19,7 @@ __all__ = ["main"]
 #: Subcommand name → module under ``voxelmocap.commands``. Order is the order of ``--help``.
 COMMANDS: dict[str, str] = {
     "demo": "demo",
+    "synth": "synth",
     "info": "info",
     "track": "track",
     "evaluate": "evaluate",
