@@ -72,13 +72,13 @@ def parse_frame_range(text: str | None, available: np.ndarray) -> np.ndarray:
             lo_text, hi_text = text.split(":", 1)
             lo = int(lo_text) if lo_text.strip() else lo_avail
             hi = int(hi_text) if hi_text.strip() else hi_avail
-            if hi < lo:
-                raise InputError("--frames", f"empty range {text!r}")
             frames = np.arange(lo, hi + 1)
         else:
             frames = np.array(sorted({int(t) for t in text.split(",")}))
     except ValueError:
         raise InputError("--frames", f"expected A:B or a comma-separated list, got {text!r}") from None
+    if len(frames) == 0:
+        raise InputError("--frames", f"empty range {text!r}")
     outside = np.setdiff1d(frames, available)
     if len(outside):
         raise InputError("--frames", f"frame {outside[0]} is outside the available frames "

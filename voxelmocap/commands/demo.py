@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     print(f"[1/3] rendering {args.frames} frames of '{args.motion}' into {len(cameras)} cameras")
     generate(data, motion=args.motion, frames=args.frames, subject="S1", action=action, trial=1,
-             seed=args.seed, cameras=cameras, progress=progress, overwrite=True)
+             seed=args.seed, cameras=cameras, progress=progress)
     t1 = time.perf_counter()
     print(f"      {data} ({t1 - t0:.1f} s)")
 

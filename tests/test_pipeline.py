@@ -1,0 +1,134 @@
+"""End-to-end tracking on a rendered sequence, resume, and the track command's bad input."""
+
+import numpy as np
+import pytest
+
+from voxelmocap.cli import main
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.errors import InputError
+from voxelmocap.io.reports import evaluate_files
+from voxelmocap.io.results import read_result
+from voxelmocap.pipeline import parse_frame_range, track_sequence
+
+CAMERAS = ["C1", "C2", "C3", "BW1"]
+SMALL = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150})
+
+
+@pytest.fixture(scope="module")
+def walk_dataset(tmp_path_factory):
+    from voxelmocap.synth import generate
+
+    root = tmp_path_factory.mktemp("walk")
+    return generate(root, motion="walk", frames=8, cameras=CAMERAS, progress=False,
+                    background_frames=20, seed=3)
+
+
+def test_parse_frame_range():
+    available = np.arange(1, 21)
+    np.testing.assert_array_equal(parse_frame_range("6:9", available), [6, 7, 8, 9])
+    np.testing.assert_array_equal(parse_frame_range(":3", available), [1, 2, 3])
+    np.testing.assert_array_equal(parse_frame_range("18:", available), [18, 19, 20])
+    np.testing.assert_array_equal(parse_frame_range("3,1,3", available), [1, 3])
+    np.testing.assert_array_equal(parse_frame_range(None, available), available)
+    with pytest.raises(InputError, match="outside"):
+        parse_frame_range("15:25", available)
+    with pytest.raises(InputError, match="expected A:B"):
+        parse_frame_range("a:b", available)
+    with pytest.raises(InputError, match="empty range"):
+        parse_frame_range("9:3", available)
+
+
+def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
+    outcome = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "run", config=SMALL,
+                             seed=1, progress=False, log=lambda *_: None)
+    assert outcome.init_method.startswith("the ground truth of frame 1")
+    result = read_result(outcome.result_path)
+    assert result.attrs["complete"]
+    np.testing.assert_array_equal(result.frames, np.arange(1, 9))
+    assert result.state.shape == (8, 27) and result.part_scores.shape == (8, 10, 4)
+    assert result.ess.shape == (8, 3)
+    (seq,) = evaluate_files(tmp_path / "run", walk_dataset)
+    # The renderer's body is not the tracker's cones, and 4 cameras carve a fat visual hull:
+    # the bound is loose on purpose but far below what a lost track gives (> 300 mm).
+    assert seq.scores.mu_mm < 110.0
+    assert seq.scores.mmta_pct > 60.0
+    assert outcome.xml_path.exists() and outcome.bvh_path.exists()
+
+
+def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch):
+    import voxelmocap.io.results as results
+
+    full = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "full", config=SMALL,
+                          frames="1:5", seed=7, progress=False, log=lambda *_: None)
+    real_write = results.write_result
+    calls = {"n": 0}
+
+    def interrupted(path, result):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        real_write(path, result)
+
+    monkeypatch.setattr(results, "write_result", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+                       frames="1:5", seed=7, progress=False, log=lambda *_: None)
+    monkeypatch.setattr(results, "write_result", real_write)
+    partial = read_result(tmp_path / "part" / "S1" / "Walking_1.h5")
+    assert len(partial) == 2 and not partial.attrs["complete"]
+    with pytest.raises(InputError, match="use --resume"):
+        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+                       frames="1:5", seed=7, progress=False, log=lambda *_: None)
+    with pytest.raises(InputError, match="its seed differs"):
+        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+                       frames="1:5", seed=8, resume=True, progress=False, log=lambda *_: None)
+    resumed = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+                             frames="1:5", seed=7, resume=True, progress=False,
+                             log=lambda *_: None)
+    assert resumed.resumed_from == 2
+    a, b = read_result(full.result_path), read_result(resumed.result_path)
+    np.testing.assert_array_equal(a.frames, b.frames)
+    np.testing.assert_array_equal(a.state, b.state)
+    np.testing.assert_array_equal(a.map_state, b.map_state)
+    np.testing.assert_array_equal(a.ess, b.ess)
+
+
+@pytest.fixture(scope="module")
+def finished_run(walk_dataset, tmp_path_factory):
+    """A finished one-frame run (1 layer × 20 particles), for the resume-mismatch case."""
+    run = tmp_path_factory.mktemp("finished")
+    assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                 "--frames", "1:1", "--layers", "1", "--particles", "20", "--no-progress",
+                 "--out", str(run)]) == 0
+    return run
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--sequence", "Jog_1"], "unknown sequence"),
+        (["--cameras", "C1,C9"], "no sync file for camera"),
+        (["--frames", "5:99"], "outside the available frames"),
+        (["--config", "{bad}"], "unknown key 'filter.particle'"),
+        (["--config", "{missing}"], "missing.toml: file not found"),
+        (["--resume", "--config", "{cfg}", "--out", "{finished}"],
+         "cannot resume: its config differs"),
+    ],
+)
+def test_track_bad_input_is_one_line(walk_dataset, finished_run, tmp_path, capsys, extra,
+                                     message):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[filter]\nparticle = 3\n")
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text("[filter]\nparticles = 30\nlayers = 1\n")
+    capsys.readouterr()
+    args = ["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+            "--frames", "1:1", "--no-progress", "--out", str(tmp_path / "run")]
+    subs = {"{bad}": str(bad), "{cfg}": str(cfg), "{finished}": str(finished_run),
+            "{missing}": str(tmp_path / "missing.toml")}
+    extra = [subs.get(e, e) for e in extra]
+    # later options win in argparse, so a case's own --out replaces the one above
+    assert main(args + extra) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "run" / "S1" / "Walking_1.h5").exists()  # nothing half-written
