@@ -191,12 +191,14 @@ def body_primitives(points, shape: BodyShape) -> Primitives:
         else up_t
     fwd_h = _ortho(up_h, fwd_c)
     left_h = np.cross(up_h, fwd_h)
-    head_c = p["head_top"] - up_h * shape.head[2]
+    # The head-top landmark sits just under the scalp (6 mm) and the hair (≈ 15 mm), as a marker
+    # on a cap would, so it projects inside the silhouette from every side.
+    head_c = p["head_top"] - up_h * (shape.head[2] - 6.0)
     capsule(p["thorax"] - up_t * 0.02 * torso_len, head_c - up_h * 0.5 * shape.head[2],
             shape.neck, "skin")
     hax = np.stack([left_h, fwd_h, up_h], 1)
     ellipsoid(head_c, hax, shape.head, "skin")
-    ellipsoid(head_c + up_h * 0.08 * shape.head[2] - fwd_h * 0.17 * shape.head[1], hax,
+    ellipsoid(head_c + up_h * 0.10 * shape.head[2] - fwd_h * 0.14 * shape.head[1], hax,
               (1.06 * shape.head[0], 0.97 * shape.head[1], 0.96 * shape.head[2]), "hair")
     for side in "lr":
         s, e, w, h = (p[f"{side}_shoulder"], p[f"{side}_elbow"], p[f"{side}_wrist"],

@@ -13,6 +13,8 @@ the background depth as the far limit (static objects occlude the subject correc
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 
 from . import _render_kernels as K
@@ -22,6 +24,19 @@ from .scene import AMBIENT, LIGHT, Scene
 __all__ = ["Renderer", "pixel_rays"]
 
 SHADOW_STRENGTH = 0.5
+
+# Per-camera ray tables and backgrounds cost ~1 s per camera to build; repeated renders of the same
+# rig and room (tests, batches of sequences) reuse them. Keyed by every number that shapes them.
+_VIEW_CACHE: OrderedDict = OrderedDict()
+_VIEW_CACHE_SIZE = 16
+
+
+def _view_key(camera, scene: Scene) -> bytes:
+    parts = [camera.fc, camera.cc, np.array([camera.alpha_c]), camera.kc, camera.R, camera.T,
+             np.array(camera.size, dtype=float), scene.room_lo, scene.room_hi,
+             np.array([scene.seed], dtype=float)]
+    parts += [np.concatenate([b.lo, b.hi, b.colour]) for b in scene.boxes]
+    return b"".join(np.asarray(p, dtype=np.float64).tobytes() for p in parts)
 
 
 def pixel_rays(camera) -> np.ndarray:
@@ -84,7 +99,17 @@ class Renderer:
     def __init__(self, rig, *, scene: Scene | None = None, scene_seed: int = 0):
         self.rig = rig
         self.scene = scene or Scene.around([c.center for c in rig], seed=scene_seed)
-        self._views = {cam.name: _View(cam, self.scene) for cam in rig}
+        self._views = {}
+        for cam in rig:
+            key = _view_key(cam, self.scene)
+            view = _VIEW_CACHE.get(key)
+            if view is None:
+                view = _View(cam, self.scene)
+                _VIEW_CACHE[key] = view
+                while len(_VIEW_CACHE) > _VIEW_CACHE_SIZE:
+                    _VIEW_CACHE.popitem(last=False)
+            _VIEW_CACHE.move_to_end(key)
+            self._views[cam.name] = view
 
     def background(self, camera: str) -> np.ndarray:
         """The empty scene's radiance ``(H, W, 3)`` float32 for a camera (a copy)."""

@@ -168,7 +168,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     rng = np.random.default_rng(seed)
     n_cam = len(rig)
     leads = {cam.name: MIN_LEAD + int(d) for cam, d in
-             zip(rig, rng.choice(np.arange(3 * n_cam), size=n_cam, replace=False), strict=True)}
+             zip(rig, rng.choice(np.arange(2 * n_cam), size=n_cam, replace=False), strict=True)}
     d_max = max(leads.values())
     # Synchronised frames 1 - d_max … N (the leads) at times start + (F - 1 + d_max) / fps.
     total = frames + d_max
