@@ -225,3 +225,33 @@ def test_bad_input():
         GaussianBackground.fit([])
     with pytest.raises(InputError, match="frame 2"):
         GaussianBackground.fit([np.zeros((4, 4), np.uint8), np.zeros((5, 4), np.uint8)])
+
+
+def _components_full_image(m, min_area, largest_only, fill_holes):
+    """Reference: component steps of clean_mask on the whole image (no cropping)."""
+    m = m.astype(np.uint8)
+    if largest_only and m.any():
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+        m = (labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))).astype(np.uint8)
+    if min_area > 1 and m.any():
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=4)
+        for lab in np.flatnonzero(stats[:, cv2.CC_STAT_AREA] < min_area):
+            if lab:
+                m[labels == lab] = 0
+    if fill_holes and m.any():
+        filled = ndimage.binary_fill_holes(m, structure=ndimage.generate_binary_structure(2, 1))
+        m = filled.astype(np.uint8)
+    return m.astype(bool)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_clean_mask_components_equal_whole_image_reference(seed):
+    rng = np.random.default_rng(seed)
+    m = ndimage.gaussian_filter(rng.random((70, 90)), 2.0) > 0.56
+    if seed % 2:
+        m[:, :3] = True  # touch the image border
+    for largest_only, min_area, fill in ((False, 30, False), (True, 0, False), (False, 12, True),
+                                         (True, 5, True)):
+        got = clean_mask(m, open_radius=0, close_radius=0, min_area=min_area,
+                         largest_only=largest_only, fill_holes=fill)
+        assert np.array_equal(got, _components_full_image(m, min_area, largest_only, fill))

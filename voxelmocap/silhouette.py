@@ -356,10 +356,10 @@ class GaussianBackground:
         for m in range(self.n_components):
             d = x - self.means[m]
             terms[m] = self._const[m] - 0.5 * np.einsum("ijc,ijc->ij", d * d, self._inv_var[m])
+        if self.n_components == 1:
+            return terms[0], np.zeros(self.shape, dtype=np.intp)
         best = np.argmax(terms, axis=0)
         top = np.take_along_axis(terms, best[None], axis=0)[0]
-        if self.n_components == 1:
-            return top, best
         # log-sum-exp around the best component (stable for very negative log-likelihoods)
         loglik = top + np.log(np.exp(terms - top[None]).sum(axis=0))
         return loglik.astype(np.float32), best
@@ -530,22 +530,32 @@ def clean_mask(mask, *, open_radius: int = 1, close_radius: int = 2, min_area: i
         r = int(close_radius)
         padded = cv2.copyMakeBorder(m, r, r, r, r, cv2.BORDER_CONSTANT, value=0)
         m = cv2.morphologyEx(padded, cv2.MORPH_CLOSE, _disk(r))[r:-r, r:-r]
-    if largest_only and m.any():
-        _, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=8)
+    rows = np.flatnonzero(m.any(axis=1))
+    if len(rows) == 0 or not (largest_only or min_area > 1 or fill_holes):
+        return m.astype(bool)
+    # Component labelling on the foreground's bounding box grown by one background pixel: every
+    # component lies inside it, and the box's rim is background connected to the outside, so the
+    # result is the same as on the whole image at a fraction of the cost.
+    cols = np.flatnonzero(m.any(axis=0))
+    box = (slice(max(rows[0] - 1, 0), rows[-1] + 2), slice(max(cols[0] - 1, 0), cols[-1] + 2))
+    sub = np.ascontiguousarray(m[box])
+    if largest_only:
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(sub, connectivity=8)
         keep = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-        m = (labels == keep).astype(np.uint8)
-    if min_area > 1 and m.any():
-        _, labels, stats, _ = cv2.connectedComponentsWithStats(m, connectivity=4)
+        sub = (labels == keep).astype(np.uint8)
+    if min_area > 1 and sub.any():
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(sub, connectivity=4)
         small = np.flatnonzero(stats[:, cv2.CC_STAT_AREA] < min_area)
         small = small[small > 0]
         if len(small):
-            m[np.isin(labels, small)] = 0
-    if fill_holes and m.any():
+            sub[np.isin(labels, small)] = 0
+    if fill_holes and sub.any():
         # Background reachable from the border stays; everything else becomes foreground.
-        _, labels, _, _ = cv2.connectedComponentsWithStats(1 - m, connectivity=4)
+        _, labels, _, _ = cv2.connectedComponentsWithStats(1 - sub, connectivity=4)
         border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-        hole = ~np.isin(labels, border) & (m == 0)
-        m[hole] = 1
+        hole = ~np.isin(labels, border) & (sub == 0)
+        sub[hole] = 1
+    m[box] = sub
     return m.astype(bool)
 
 

@@ -43,7 +43,11 @@ def _depth_view(volume, axis: int, from_high: bool):
     vol = np.flip(volume, axis=axis) if from_high else volume
     hit = vol.any(axis=axis)
     first = np.argmax(vol, axis=axis).astype(float)
-    shade = 1.0 - 0.75 * first / max(volume.shape[axis] - 1, 1)  # near = bright
+    if not hit.any():
+        return np.full(first.shape, np.nan)
+    # stretch over the depths actually seen, so a person's relief shows (near = bright)
+    lo, hi = first[hit].min(), first[hit].max()
+    shade = 1.0 - 0.8 * (first - lo) / max(hi - lo, 1.0)
     return np.where(hit, shade, np.nan)
 
 
