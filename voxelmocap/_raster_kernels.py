@@ -2,12 +2,13 @@
 
 Every truncated cone is convex, so its voxels in a lattice column ``(i, j)`` form one run
 ``k ∈ [klo, khi]`` (DESIGN.md §4). :func:`_column_interval` finds the run from the roots of a
-quadratic in z, then settles both ends with :func:`_inside` — the very membership test, in the very
-floating-point operation order, that the per-voxel reference uses — so the runs are exactly the
-reference's voxel sets. With per-column prefix sums along z of the scene mask, of ``V^R`` and of
-the quantised ``Ṽ^S``, a part's voxel count, Out, Occ and Surf sums cost O(1) per column; DO is
-the overlap of the run with the union of the other parts' runs in that column, and a part's
-surface voxels are the run ends plus the stretches not covered by all four neighbour columns' runs.
+quadratic in z, then decides the voxel nearest to each end with :func:`_inside` — the very
+membership test, in the very floating-point operation order, that the per-voxel reference uses —
+so the runs are exactly the reference's voxel sets. With per-column prefix sums along z of the
+scene mask, of ``V^R`` and of the quantised ``Ṽ^S``, a part's voxel count, Out, Occ and Surf
+sums cost O(1) per column; DO counts, in each column where runs meet, the run's layers covered
+twice or more; a part's surface voxels are the run ends plus the stretches not covered by all
+four neighbour columns' runs.
 
 All lattice indices are *unbounded* (columns and layers outside the grid exist, they are simply
 outside the analysed scene). Geometry arrays are float64, ``(P, n_parts, 3)``; ``shape`` is
@@ -22,15 +23,22 @@ import math
 import numpy as np
 from numba import njit, prange
 
-# Widening of the approximate run (dimensionless in the cone inequality, mm along the axis): it
-# only makes the closed-form run a little too long; the exact ends come from _inside.
+# Widening of the cone inequality in the closed form (dimensionless): a line that only grazes a
+# cone still gets a (tiny) run, whose end voxels _inside then decides.
 _EPS_Q = 1e-9
-_EPS_T = 1e-6
+# Conditioning thresholds of the closed form. Below _NZ_MIN the axis is treated as horizontal
+# (t is decided from tp with tolerance _TP_TOL mm, far above |dz·nz| < 5000 mm · 1e-9). A root is
+# trusted when q crosses 0 with slope 2·sqrt(disc) > 2·_SLOPE_MIN / voxel, i.e. when _EPS_Q and
+# rounding (≲ 1e-15) move it by far less than a tenth of a voxel. |q| ≤ _Q_MIN counts as zero.
+_NZ_MIN = 1e-9
+_TP_TOL = 1e-5
+_SLOPE_MIN = 1e-7
+_Q_MIN = 1e-7
 _EPS_IDX = 1e-6
 N_COUNTS = 6
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _inside(tp, ap, bp, dz, nz, u1z, u2z, inv_h, inv_w, length, k_r):
     """Membership of one voxel centre; ``tp, ap, bp`` are the column's x-y partial sums.
 
@@ -63,10 +71,18 @@ def _part_bbox(base, axis, u1, u2, shp, ox, oy, oz, vs, bb):
         bb[2 * e + 1] = int(math.floor((hi - origin[e]) / vs - 0.5 + _EPS_IDX))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz, vs,
                      kmin, kmax):
-    """Exact run ``(klo, khi)`` of one cone in one column; ``klo > khi`` when empty."""
+    """Exact run ``(klo, khi)`` of one cone in one column; ``klo > khi`` when empty.
+
+    The closed form locates each end of the run; when it is well conditioned (the end comes from
+    a slab plane or a root crossed at a clear slope) it is good to far better than half a voxel,
+    and the voxel nearest to each end is tested with :func:`_inside`, which decides the end
+    exactly: voxels one layer further in or out are at least ~half a voxel from the boundary.
+    Otherwise (grazing lines, nearly constant or degenerate cases) both ends are walked with
+    :func:`_inside`, starting from the closed-form run widened by ``_EPS_Q``.
+    """
     # Closed form: the cone inequality is q(dz) = qa dz² + 2 qb dz + qc ≤ 0 on the slab
     # 0 ≤ t ≤ L; dz is measured from the base centre's z.
     a0 = ap * inv_h
@@ -80,29 +96,49 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
     qc = a0 * a0 + b0 * b0 - s0 * s0 - _EPS_Q
     lo = (kmin + 0.5) * vs + oz - bz - vs
     hi = (kmax + 0.5) * vs + oz - bz + vs
-    if nz != 0.0:
-        za = (-_EPS_T - tp) / nz
-        zb = (length + _EPS_T - tp) / nz
-        lo = max(lo, min(za, zb))
-        hi = min(hi, max(za, zb))
-    elif tp < -_EPS_T or tp > length + _EPS_T:
-        return 1, 0
+    lo_ok = False  # does the end come from a well-conditioned constraint?
+    hi_ok = False
+    walk = False
+    if abs(nz) >= _NZ_MIN:
+        inv_nz = 1.0 / nz  # loop-invariant: hoisted out of the column loops once inlined
+        za = -tp * inv_nz
+        zb = (length - tp) * inv_nz
+        if min(za, zb) > lo:
+            lo = min(za, zb)
+            lo_ok = True
+        if max(za, zb) < hi:
+            hi = max(za, zb)
+            hi_ok = True
+    else:
+        # t = tp + dz·nz hardly varies along the column (and rounds to tp in _inside when
+        # |dz·nz| is below tp's last bit): decide from tp, or walk when tp is near 0 or L
+        if tp < -_TP_TOL or tp > length + _TP_TOL:
+            return 1, 0
+        if tp < _TP_TOL or tp > length - _TP_TOL:
+            walk = True
     if lo > hi:
         return 1, 0
+    slope_min = _SLOPE_MIN / vs
     disc = qb * qb - qa * qc
     if qa > 0.0:
         if disc < 0.0:
             return 1, 0
+        root_ok = math.sqrt(disc) > slope_min
         qq = -(qb + math.copysign(math.sqrt(disc), qb))
         if qq == 0.0:
             r1 = r2 = -qb / qa
         else:
-            r1 = qq / qa
-            r2 = qc / qq
-        lo = max(lo, min(r1, r2))
-        hi = min(hi, max(r1, r2))
+            r1 = min(qq / qa, qc / qq)
+            r2 = max(qq / qa, qc / qq)
+        if r1 > lo:
+            lo = r1
+            lo_ok = root_ok
+        if r2 < hi:
+            hi = r2
+            hi_ok = root_ok
     elif qa < 0.0:
         if disc >= 0.0:
+            root_ok = math.sqrt(disc) > slope_min
             qq = -(qb + math.copysign(math.sqrt(disc), qb))
             if qq == 0.0:
                 rs = rb = -qb / qa
@@ -112,27 +148,64 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
             piece_a = min(hi, rs) >= lo
             piece_b = max(lo, rb) <= hi
             if piece_a and not piece_b:
-                hi = min(hi, rs)
+                if rb < hi + vs:  # the other piece is not clearly out
+                    walk = True
+                if rs < hi:
+                    hi = rs
+                    hi_ok = root_ok
             elif piece_b and not piece_a:
-                lo = max(lo, rb)
+                if rs > lo - vs:
+                    walk = True
+                if rb > lo:
+                    lo = rb
+                    lo_ok = root_ok
             elif not piece_a and not piece_b:
-                return 1, 0
-            # both pieces: keep the hull; the exact ends are found below
+                if rs > lo - vs or rb < hi + vs:
+                    walk = True
+                else:
+                    return 1, 0
+            else:
+                walk = True
+        elif -disc < -qa * _Q_MIN:  # q < 0 everywhere, but its maximum is close to 0
+            walk = True
     else:
-        if qb > 0.0:
-            hi = min(hi, -qc / (2.0 * qb))
-        elif qb < 0.0:
-            lo = max(lo, -qc / (2.0 * qb))
-        elif qc > 0.0:
-            return 1, 0
-    if lo > hi:
+        if abs(qb) * vs > _Q_MIN:
+            r = -qc / (2.0 * qb)
+            if qb > 0.0 and r < hi:
+                hi = r
+                hi_ok = True
+            elif qb < 0.0 and r > lo:
+                lo = r
+                lo_ok = True
+        elif abs(qc) > _Q_MIN:
+            if qc > 0.0:
+                return 1, 0
+        else:
+            walk = True
+    if lo > hi and not walk:
         return 1, 0
-    # to lattice layers, clamped to the cone's box
-    klo = int(math.ceil(max(min((lo + bz - oz) / vs - 0.5, kmax + 1.0), kmin - 1.0)))
-    khi = int(math.floor(max(min((hi + bz - oz) / vs - 0.5, kmax + 1.0), kmin - 1.0)))
-    klo = max(klo, kmin)
-    khi = min(khi, kmax)
-    # settle the ends with the exact membership test
+    inv_vs = 1.0 / vs
+    kf_lo = (lo + bz - oz) * inv_vs - 0.5
+    kf_hi = (hi + bz - oz) * inv_vs - 0.5
+    if lo_ok and hi_ok and not walk:
+        klo = max(int(math.floor(kf_lo + 0.5)), kmin)
+        khi = min(int(math.floor(kf_hi + 0.5)), kmax)
+        if klo > khi:
+            return 1, 0
+        in_lo = _inside(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z, inv_h, inv_w,
+                        length, k_r)
+        if khi == klo:
+            return (klo, klo) if in_lo else (1, 0)
+        in_hi = _inside(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z, u2z, inv_h, inv_w,
+                        length, k_r)
+        return (klo if in_lo else klo + 1), (khi if in_hi else khi - 1)
+    # uncertain closed form: scan the box column with the exact test from both ends
+    if walk:
+        klo = kmin
+        khi = kmax
+    else:
+        klo = max(int(math.ceil(max(kf_lo, kmin - 1.0))) - 1, kmin)
+        khi = min(int(math.floor(min(kf_hi, kmax + 1.0))) + 1, kmax)
     while klo <= khi and not _inside(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z,
                                      inv_h, inv_w, length, k_r):
         klo += 1
@@ -192,6 +265,12 @@ def _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs):
 
 
 @njit(cache=True)
+def _union_columns(bb):
+    """Number of columns of the union box (in x-y) of all parts' boxes."""
+    return ((bb[:, 1].max() - bb[:, 0].min() + 1) * (bb[:, 3].max() - bb[:, 2].min() + 1))
+
+
+@njit(cache=True, inline="always")
 def _run_of(q, i, j, bb, runs):
     if i < bb[q, 0] or i > bb[q, 1] or j < bb[q, 2] or j > bb[q, 3]:
         return 1, 0
@@ -200,26 +279,18 @@ def _run_of(q, i, j, bb, runs):
 
 
 @njit(cache=True)
-def _score(nx, ny, nz, prefix, qmax, bb, runs, near, tmp_lo, tmp_hi, counts):
-    """Integer counts of every part of one particle into ``counts (n_parts, 6)``."""
+def _score(nx, ny, nz, prefix, qmax, bb, runs, counts):
+    """Counts of every part of one particle into ``counts (n_parts, 6)``, except DO."""
     n_parts = bb.shape[0]
     for q in range(n_parts):
         n = 0
         out = 0
-        do = 0
         occ = 0
         nsurf = 0
         surf = 0
         i0, i1, j0, j1 = bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3]
         nj = j1 - j0 + 1
         off = bb[q, 6]
-        # only parts whose boxes meet this part's box can share voxels with it
-        n_near = 0
-        for r in range(n_parts):
-            if r != q and bb[r, 0] <= i1 and bb[r, 1] >= i0 and bb[r, 2] <= j1 \
-                    and bb[r, 3] >= j0 and bb[r, 4] <= bb[q, 5] and bb[r, 5] >= bb[q, 4]:
-                near[n_near] = r
-                n_near += 1
         for i in range(i0, i1 + 1):
             for j in range(j0, j1 + 1):
                 idx = off + (i - i0) * nj + (j - j0)
@@ -259,40 +330,96 @@ def _score(nx, ny, nz, prefix, qmax, bb, runs, near, tmp_lo, tmp_hi, counts):
                             sv_int = prefix[i, j, b + 1, 2] - prefix[i, j, a, 2]
                 out += length - scene_in
                 surf += (length - n_int) * qmax - (sv_all - sv_int)
-                # double occupancy: union of the other parts' runs clipped to this run
-                m = 0
-                for rr in range(n_near):
-                    r = near[rr]
-                    lo_r, hi_r = _run_of(r, i, j, bb, runs)
-                    lo_r = max(lo_r, klo)
-                    hi_r = min(hi_r, khi)
-                    if lo_r > hi_r:
-                        continue
-                    pos = m  # insertion sort by start
-                    while pos > 0 and tmp_lo[pos - 1] > lo_r:
-                        tmp_lo[pos] = tmp_lo[pos - 1]
-                        tmp_hi[pos] = tmp_hi[pos - 1]
-                        pos -= 1
-                    tmp_lo[pos] = lo_r
-                    tmp_hi[pos] = hi_r
-                    m += 1
-                if m > 0:
-                    cur_lo = tmp_lo[0]
-                    cur_hi = tmp_hi[0]
-                    for s in range(1, m):
-                        if tmp_lo[s] > cur_hi + 1:
-                            do += cur_hi - cur_lo + 1
-                            cur_lo = tmp_lo[s]
-                            cur_hi = tmp_hi[s]
-                        elif tmp_hi[s] > cur_hi:
-                            cur_hi = tmp_hi[s]
-                    do += cur_hi - cur_lo + 1
         counts[q, 0] = n
         counts[q, 1] = out
-        counts[q, 2] = do
+        counts[q, 2] = 0
         counts[q, 3] = occ
         counts[q, 4] = nsurf
         counts[q, 5] = surf
+
+
+@njit(cache=True)
+def _double_occupancy(bb, runs, cover, cover_n, tmp_lo, tmp_hi, run_lo, run_hi, counts):
+    """DO counts (``counts[:, 2]``).
+
+    Per column of the union box: the parts with a run there (``cover (·, n_parts, 3)`` = part,
+    klo, khi; ``cover_n`` how many); where two runs or more meet, the layers covered twice or
+    more (S2), and for each part the length of its run inside S2.
+    """
+    n_parts = bb.shape[0]
+    ui0 = bb[0, 0]
+    ui1 = bb[0, 1]
+    uj0 = bb[0, 2]
+    uj1 = bb[0, 3]
+    for q in range(1, n_parts):
+        ui0 = min(ui0, bb[q, 0])
+        ui1 = max(ui1, bb[q, 1])
+        uj0 = min(uj0, bb[q, 2])
+        uj1 = max(uj1, bb[q, 3])
+    nuj = uj1 - uj0 + 1
+    ncol = (ui1 - ui0 + 1) * nuj
+    cover_n[:ncol] = 0
+    for q in range(n_parts):
+        counts[q, 2] = 0
+        i0, i1, j0, j1, off = bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3], bb[q, 6]
+        nj = j1 - j0 + 1
+        for i in range(i0, i1 + 1):
+            row = off + (i - i0) * nj - j0
+            crow = (i - ui0) * nuj - uj0
+            for j in range(j0, j1 + 1):
+                lo = runs[row + j, 0]
+                hi = runs[row + j, 1]
+                if lo <= hi:
+                    c = crow + j
+                    n = cover_n[c]
+                    cover[c, n, 0] = q
+                    cover[c, n, 1] = lo
+                    cover[c, n, 2] = hi
+                    cover_n[c] = n + 1
+    for c in range(ncol):
+        m = cover_n[c]
+        if m < 2:
+            continue
+        # the column's runs sorted by start
+        for a in range(m):
+            lo_a = cover[c, a, 1]
+            hi_a = cover[c, a, 2]
+            pos = a
+            while pos > 0 and run_lo[pos - 1] > lo_a:
+                run_lo[pos] = run_lo[pos - 1]
+                run_hi[pos] = run_hi[pos - 1]
+                pos -= 1
+            run_lo[pos] = lo_a
+            run_hi[pos] = hi_a
+        # S2 = layers inside two runs or more = ∪_b [lo_b, min(hi_b, reach before b)],
+        # produced in increasing order and merged on the fly
+        n2 = 0
+        reach = run_hi[0]
+        for b in range(1, m):
+            lo_s = run_lo[b]
+            hi_s = min(run_hi[b], reach)
+            if lo_s <= hi_s:
+                if n2 > 0 and lo_s <= tmp_hi[n2 - 1] + 1:
+                    tmp_hi[n2 - 1] = max(tmp_hi[n2 - 1], hi_s)
+                else:
+                    tmp_lo[n2] = lo_s
+                    tmp_hi[n2] = hi_s
+                    n2 += 1
+            reach = max(reach, run_hi[b])
+        if n2 == 0:
+            continue
+        # DO of a part: its run's layers in S2 (eq 4: voxels whose count exceeds 1)
+        for a in range(m):
+            q = cover[c, a, 0]
+            klo = cover[c, a, 1]
+            khi = cover[c, a, 2]
+            do = 0
+            for t in range(n2):
+                lo_s = max(tmp_lo[t], klo)
+                hi_s = min(tmp_hi[t], khi)
+                if lo_s <= hi_s:
+                    do += hi_s - lo_s + 1
+            counts[q, 2] += do
 
 
 @njit(cache=True, parallel=True)
@@ -312,13 +439,21 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
         runs = np.empty((4096, 2), np.int64)
         tmp_lo = np.empty(n_parts, np.int64)
         tmp_hi = np.empty(n_parts, np.int64)
-        near = np.empty(n_parts, np.int64)
+        run_lo = np.empty(n_parts, np.int64)
+        run_hi = np.empty(n_parts, np.int64)
+        cover = np.empty((4096, n_parts, 3), np.int64)
+        cover_n = np.empty(4096, np.int64)
         for p in range(c, n_particles, n_chunks):
             total = _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
             if total > runs.shape[0]:
                 runs = np.empty((2 * total, 2), np.int64)
+            ncol = _union_columns(bb)
+            if ncol > cover_n.shape[0]:
+                cover = np.empty((2 * ncol, n_parts, 3), np.int64)
+                cover_n = np.empty(2 * ncol, np.int64)
             _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs)
-            _score(nx, ny, nz, prefix, qmax, bb, runs, near, tmp_lo, tmp_hi, counts[p])
+            _score(nx, ny, nz, prefix, qmax, bb, runs, counts[p])
+            _double_occupancy(bb, runs, cover, cover_n, tmp_lo, tmp_hi, run_lo, run_hi, counts[p])
 
 
 @njit(cache=True)
