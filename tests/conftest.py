@@ -23,3 +23,17 @@ def tiny_dataset(tmp_path) -> Path:
     from humaneva_fixture import make_tiny_dataset
 
     return make_tiny_dataset(tmp_path / "data")
+
+
+#: Cameras of the shared rendered walk (a subset keeps rendering and carving quick).
+WALK_CAMERAS = ["C1", "C2", "C3", "BW1"]
+
+
+@pytest.fixture(scope="session")
+def walk_dataset(tmp_path_factory) -> Path:
+    """An 8-frame procedural walk rendered into 4 cameras (HumanEva layout, with ground truth)."""
+    from voxelmocap.synth import generate
+
+    root = tmp_path_factory.mktemp("walk")
+    return generate(root, motion="walk", frames=8, cameras=WALK_CAMERAS, progress=False,
+                    background_frames=20, seed=3)

@@ -10,17 +10,7 @@ from voxelmocap.io.reports import evaluate_files
 from voxelmocap.io.results import read_result
 from voxelmocap.pipeline import parse_frame_range, track_sequence
 
-CAMERAS = ["C1", "C2", "C3", "BW1"]
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150})
-
-
-@pytest.fixture(scope="module")
-def walk_dataset(tmp_path_factory):
-    from voxelmocap.synth import generate
-
-    root = tmp_path_factory.mktemp("walk")
-    return generate(root, motion="walk", frames=8, cameras=CAMERAS, progress=False,
-                    background_frames=20, seed=3)
 
 
 def test_parse_frame_range():

@@ -1,0 +1,46 @@
+import csv
+
+import numpy as np
+import pytest
+
+from voxelmocap.errors import InputError
+from voxelmocap.sweep import SweepCell, best_cell, plan_cells, run_sweep
+
+
+def test_plan_is_the_product_with_distinct_seeds():
+    cells = plan_cells([1, 2], [100, 200, 400], [20.0], [3, 7], seeds=2)
+    assert len(cells) == 2 * 3 * 2 * 2
+    assert len({c.seed for c in cells}) == len(cells)
+    assert len({c.name for c in cells}) == len(cells)
+    # stable across processes and runs
+    assert SweepCell(2, 100, 20.0, 7, 1).seed == SweepCell(2, 100, 20.0, 7, 1).seed
+    with pytest.raises(InputError):
+        plan_cells([1], [0], [20.0], [3], seeds=1)
+
+
+def test_best_cell_is_the_cheapest_reaching_the_best():
+    layers, particles = [1, 2, 4], [100, 200]
+    mmta = np.array([[50.0, 70.0], [70.0, 80.0], [80.0, np.nan]])
+    # best 80 reached by (2, 200) = 400 particles and (4, 100) = 400: tie → higher MMTA, then first
+    assert best_cell(mmta, layers, particles) in {(1, 1), (2, 0)}
+    # with a tolerance of 10 points, (1, 200) = 200 and (2, 100) = 200 qualify; (1, 200) first
+    assert best_cell(mmta, layers, particles, tolerance=10.0) == (0, 1)
+    assert best_cell(np.full((2, 2), np.nan), [1, 2], [1, 2]) is None
+
+
+def test_two_cell_sweep_on_a_local_dask_cluster(walk_dataset, tmp_path):
+    out = tmp_path / "sweep"
+    kwargs = dict(layers=[1], particles=[20, 40], voxel_sizes=[40.0], cameras=[3], seeds=1,
+                  frames="1:2", n_workers=2, log=lambda *_: None)
+    csv_path, heatmaps = run_sweep(walk_dataset, "S1", "Walking_1", out, **kwargs)
+    rows = list(csv.DictReader(csv_path.read_text().splitlines()))
+    assert [int(r["particles"]) for r in rows] == [20, 40]
+    assert all(0 <= float(r["mmta_pct"]) <= 100 and int(r["frames"]) == 2 for r in rows)
+    assert all(r["cameras"] == "C1,C2,C3" for r in rows)
+    assert len(heatmaps) == 1 and heatmaps[0].stat().st_size > 1000
+    stamps = {p: p.stat().st_mtime_ns for p in out.glob("cells/*/score.json")}
+    assert len(stamps) == 2
+    messages = []
+    run_sweep(walk_dataset, "S1", "Walking_1", out, **dict(kwargs, log=messages.append))
+    assert messages == ["2 cells, 2 already done, 0 to run"]
+    assert {p: p.stat().st_mtime_ns for p in out.glob("cells/*/score.json")} == stamps
