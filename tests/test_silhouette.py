@@ -255,3 +255,37 @@ def test_clean_mask_components_equal_whole_image_reference(seed):
         got = clean_mask(m, open_radius=0, close_radius=0, min_area=min_area,
                          largest_only=largest_only, fill_holes=fill)
         assert np.array_equal(got, _components_full_image(m, min_area, largest_only, fill))
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """A short sequence from the project's generator, with its noise-free person masks."""
+    from voxelmocap.io.humaneva import Dataset
+    from voxelmocap.synth.writer import generate
+
+    root = generate(tmp_path_factory.mktemp("synth") / "data", frames=4, cameras=["C1", "BW1"],
+                    background_frames=30, render_masks=True, progress=False, seed=3)
+    return root, Dataset(root).sequence("S1", "Walking_1")
+
+
+def test_gaussian_on_generator_masks(synthetic):
+    """Precision / recall against the generator's noise-free masks (default settings)."""
+    root, seq = synthetic
+    cfg = SilhouetteConfig()
+    models = build_backgrounds(cfg, seq.camera_names,
+                               {c: seq.background_sets(c) for c in seq.camera_names}, sets=True)
+    counts = {c: np.zeros(3) for c in seq.camera_names}
+    for number, images in seq.frames():
+        for cam in seq.camera_names:
+            truth = cv2.imread(str(root / "S1" / "Mask_Data" / f"Walking_1_({cam})" /
+                                   f"{number:05d}.png"), cv2.IMREAD_GRAYSCALE) > 0
+            mask = segment(images[cam], models[cam], cfg, camera=cam)
+            counts[cam] += [np.sum(mask & truth), mask.sum(), truth.sum()]
+    tp, found, true = counts["C1"]
+    # colour: shadows removed; misses are pixels whose colour matches the wall behind
+    assert tp / found > 0.93 and tp / true > 0.95, (tp / found, tp / true)
+    tp, found, true = counts["BW1"]
+    # grayscale: the floor shadow stays foreground (no chromaticity to reject it), so precision
+    # is low by design; carving removes it with the colour views. The person itself is found.
+    assert tp / true > 0.95, tp / true
+    assert tp / found > 0.4, tp / found
