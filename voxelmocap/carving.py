@@ -130,13 +130,17 @@ def visible(camera, points, *, r_max: float | None = None):
     """
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     r_max = fov_radius(camera) if r_max is None else r_max
-    # Camera.project's model step by step (its distortion code included), with the rigid transform
-    # as a contiguous matmul: ``points @ R.T`` on the read-only transposed view is ~8x slower.
-    xc = points @ np.ascontiguousarray(camera.R.T) + camera.T
-    z = xc[:, 2]
+    # Camera.project's model step by step (its distortion code included). The rigid transform is
+    # written out element-wise: a BLAS matmul of (N, 3) by (3, 3) is slow on the transposed R and
+    # collapses when its threads compete for busy cores.
+    R, T = camera.R, camera.T
+    x, y, w = points[:, 0], points[:, 1], points[:, 2]
+    xc0 = R[0, 0] * x + R[0, 1] * y + R[0, 2] * w + T[0]
+    xc1 = R[1, 0] * x + R[1, 1] * y + R[1, 2] * w + T[1]
+    z = R[2, 0] * x + R[2, 1] * y + R[2, 2] * w + T[2]
     front = z > 0
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ab = xc[:, :2] / z[:, None]
+        ab = np.stack([xc0 / z, xc1 / z], axis=1)
         r2 = np.einsum("ij,ij->i", ab, ab)
         xd, yd = camera.distort(ab).T
         pix = np.stack([camera.fc[0] * (xd + camera.alpha_c * yd) + camera.cc[0],
