@@ -144,3 +144,33 @@ def test_shadow_culling_discs_change_nothing():
                    LIGHT, 0.5, ref)
     assert np.any(ref < view.background - 1e-3)  # there is a shadow
     np.testing.assert_array_equal(fast, ref)
+
+
+def test_primitive_boxes_change_nothing_on_a_real_body():
+    from voxelmocap.synth import default_rig_path, procedural_points
+    from voxelmocap.synth.body_shape import BodyShape, body_primitives
+
+    rig = Rig.from_folder(default_rig_path(), names=["C3", "BW4"])
+    renderer = Renderer(rig)
+    shape = BodyShape.for_subject("S3", 1800)
+    for kind in ("jog", "throwcatch"):
+        prims = body_primitives(procedural_points(kind, [0.7])[0], shape)
+        for cam in rig.names:
+            view = renderer._views[cam]
+            roi = renderer.roi(cam, prims)
+            cap_box, ell_box = renderer.primitive_boxes(cam, prims)
+            out = []
+            for boxes in ((cap_box, ell_box),
+                          (np.tile([-10**9, 10**9, -10**9, 10**9], (len(cap_box), 1)),
+                           np.tile([-10**9, 10**9, -10**9, 10**9], (len(ell_box), 1)))):
+                img = view.background.copy()
+                mask = np.zeros(img.shape[:2], bool)
+                depth = np.zeros(img.shape[:2], np.float32)
+                K.cast_body(view.rays, view.origin, roi, prims.capsules, prims.capsule_colours,
+                            np.ascontiguousarray(boxes[0], dtype=np.int64), prims.ellipsoids,
+                            prims.ellipsoid_colours, np.ascontiguousarray(boxes[1], dtype=np.int64),
+                            view.bg_depth, LIGHT, 0.4, img, mask, depth)
+                out.append((img, mask))
+            assert out[1][1].sum() > 1000
+            np.testing.assert_array_equal(out[0][1], out[1][1])
+            np.testing.assert_array_equal(out[0][0], out[1][0])

@@ -12,8 +12,9 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
-__all__ = ["cast_body", "floor_shadow", "ray_capsule", "ray_ellipsoid"]
+__all__ = ["cast_body", "expose", "floor_shadow", "ray_capsule", "ray_ellipsoid"]
 
 
 @numba.njit(cache=True, inline="always")
@@ -72,8 +73,8 @@ def ray_ellipsoid(ox, oy, oz, dx, dy, dz, ell):
 
 
 @numba.njit(cache=True, parallel=True)
-def cast_body(rays, origin, roi, capsules, cap_colours, ellipsoids, ell_colours, bg_depth,
-              light, ambient, image, mask, depth):
+def cast_body(rays, origin, roi, capsules, cap_colours, cap_boxes, ellipsoids, ell_colours,
+              ell_boxes, bg_depth, light, ambient, image, mask, depth):
     """Ray-cast the body into ``image`` over a region of interest.
 
     Parameters
@@ -86,6 +87,8 @@ def cast_body(rays, origin, roi, capsules, cap_colours, ellipsoids, ell_colours,
         ``u0, u1, v0, v1`` pixel bounds (half-open).
     capsules, cap_colours, ellipsoids, ell_colours : float64 arrays
         See :class:`voxelmocap.synth.body_shape.Primitives`.
+    cap_boxes, ell_boxes : (Nc, 4), (Ne, 4) int64
+        ``u0, u1, v0, v1`` pixel box outside which a primitive cannot appear (skipped there).
     bg_depth : (H, W) float32
         Distance (mm) to the static background along each ray; the body must be nearer.
     light : (3,) float64
@@ -110,10 +113,16 @@ def cast_body(rays, origin, roi, capsules, cap_colours, ellipsoids, ell_colours,
             kind = -1
             idx = -1
             for i in range(nc):
+                if u < cap_boxes[i, 0] or u >= cap_boxes[i, 1] or v < cap_boxes[i, 2] \
+                        or v >= cap_boxes[i, 3]:
+                    continue
                 t = ray_capsule(ox, oy, oz, dx, dy, dz, capsules[i])
                 if 0.0 < t < best:
                     best, kind, idx = t, 0, i
             for i in range(ne):
+                if u < ell_boxes[i, 0] or u >= ell_boxes[i, 1] or v < ell_boxes[i, 2] \
+                        or v >= ell_boxes[i, 3]:
+                    continue
                 t = ray_ellipsoid(ox, oy, oz, dx, dy, dz, ellipsoids[i])
                 if 0.0 < t < best:
                     best, kind, idx = t, 1, i
@@ -229,3 +238,53 @@ def floor_shadow(floor_points, is_floor, roi, capsules, ellipsoids, ell_radius, 
             f = 1.0 - strength * occl
             for ch in range(3):
                 image[v, u, ch] *= f
+
+
+@numba.njit(cache=True, inline="always")
+def _mix64(z):
+    """SplitMix64 finaliser: a well-mixed 64-bit hash of a counter."""
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+@numba.njit(cache=True, parallel=True)
+def expose(radiance, scale, sigma, table, seed, out):
+    """Sensor response: ``out = clip(radiance · scale + sigma · n + 0.5)`` as uint8.
+
+    Parameters
+    ----------
+    radiance : (H, W, C) float32
+        C = 3 (colour) or 1 (grey, written to all three output channels).
+    scale : float
+        Grey level of radiance 1 times this frame's gain.
+    sigma : float
+        Noise standard deviation (grey levels).
+    table : (M,) float32
+        Standard normal draws, M a power of two (small enough to stay in cache). Each pixel and
+        channel takes the entry indexed by the top bits of a xorshift64 stream (one per image row,
+        seeded by a hash of ``seed`` and the row): independent noise from the table's empirical
+        normal distribution, deterministic for a seed, no shared RNG state between threads.
+    seed : uint64
+        This image's noise seed.
+    out : (H, W, 3) uint8
+        Output image.
+    """
+    H, W, C = radiance.shape
+    shift = np.uint64(64 - int(np.log2(table.shape[0])))
+    golden = np.uint64(0x9E3779B97F4A7C15)
+    for v in numba.prange(H):
+        # one xorshift64 stream per row, seeded by a hash of (seed, row): parallel and reproducible
+        state = _mix64(seed + np.uint64(v + 1) * golden) | np.uint64(1)
+        for u in range(W):
+            for ch in range(C):
+                state ^= state << np.uint64(13)
+                state ^= state >> np.uint64(7)
+                state ^= state << np.uint64(17)
+                n = table[state >> shift]
+                x = radiance[v, u, ch] * scale + sigma * n + 0.5
+                x = min(max(x, 0.0), 255.0)
+                if C == 1:
+                    out[v, u, 0] = out[v, u, 1] = out[v, u, 2] = np.uint8(x)
+                else:
+                    out[v, u, ch] = np.uint8(x)

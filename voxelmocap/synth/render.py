@@ -138,6 +138,36 @@ class Renderer:
         v1 = int(np.ceil(np.max(uv[ok, 1] + pr))) + 1
         return np.array([max(u0, 0), min(u1, W), max(v0, 0), min(v1, H)], dtype=np.int64)
 
+    def primitive_boxes(self, camera: str, prims: Primitives) -> tuple[np.ndarray, np.ndarray]:
+        """Per-primitive pixel boxes ``(N, 4)`` int64 (``u0, u1, v0, v1``) from bounding spheres.
+
+        A capsule's box holds both end spheres, an ellipsoid's its circumscribed sphere; the
+        projected radius is widened by 25 % and 2 px so that lens distortion cannot push the
+        primitive outside it.
+        """
+        cam = self._views[camera].camera
+        caps, ells = prims.capsules, prims.ellipsoids
+        semi_max = 1.0 / np.linalg.svd(ells[:, 3:12].reshape(-1, 3, 3), compute_uv=False)[:, -1]
+        centres = np.concatenate([caps[:, 0:3], caps[:, 3:6], ells[:, :3]])
+        radii = np.concatenate([caps[:, 6], caps[:, 6], semi_max])
+        uv, z = cam.project(centres, return_depth=True)
+        behind = z <= radii + 1.0  # a sphere reaching behind the camera: no useful box
+        pr = np.where(behind, 0.0, 1.25 * radii * max(cam.fc) / np.maximum(z - radii, 1.0) + 2.0)
+        lo = np.floor(uv - pr[:, None])
+        hi = np.ceil(uv + pr[:, None]) + 1
+        big = 1 << 30
+        lo[behind], hi[behind] = -big, big
+        lo = np.clip(lo, -big, big).astype(np.int64)
+        hi = np.clip(hi, -big, big).astype(np.int64)
+        nc = len(caps)
+        cap_box = np.column_stack([np.minimum(lo[:nc, 0], lo[nc:2 * nc, 0]),
+                                   np.maximum(hi[:nc, 0], hi[nc:2 * nc, 0]),
+                                   np.minimum(lo[:nc, 1], lo[nc:2 * nc, 1]),
+                                   np.maximum(hi[:nc, 1], hi[nc:2 * nc, 1])])
+        ell_box = np.column_stack([lo[2 * nc:, 0], hi[2 * nc:, 0], lo[2 * nc:, 1],
+                                   hi[2 * nc:, 1]])
+        return np.ascontiguousarray(cap_box), np.ascontiguousarray(ell_box)
+
     def render(self, camera: str, prims: Primitives, *, shadow: bool = True
                ) -> tuple[np.ndarray, np.ndarray]:
         """Render one camera.
@@ -176,8 +206,9 @@ class Renderer:
             cap_cull, ell_cull = _shadow_discs(caps, ells[:, :3], semi.max(axis=1), ell_r)
             K.floor_shadow(view.floor_points, view.is_floor, roi, caps, ells, ell_r, cap_cull,
                            ell_cull, light, SHADOW_STRENGTH, img)
+        cap_boxes, ell_boxes = self.primitive_boxes(camera, prims)
         K.cast_body(view.rays, view.origin, roi, caps,
-                    np.ascontiguousarray(prims.capsule_colours, dtype=np.float64), ells,
-                    np.ascontiguousarray(prims.ellipsoid_colours, dtype=np.float64),
-                    view.bg_depth, light, AMBIENT, img, mask, depth)
+                    np.ascontiguousarray(prims.capsule_colours, dtype=np.float64), cap_boxes,
+                    ells, np.ascontiguousarray(prims.ellipsoid_colours, dtype=np.float64),
+                    ell_boxes, view.bg_depth, light, AMBIENT, img, mask, depth)
         return img, mask

@@ -253,6 +253,10 @@ class Scene:
         return col
 
 
+#: Standard normal draws behind the sensor noise (see :func:`._render_kernels.expose`).
+NOISE_TABLE = np.random.default_rng(20261122).standard_normal(1 << 13).astype(np.float32)
+
+
 def sensor(radiance, *, gray: bool, gain: float, noise_sigma: float, rng, exposure: float = 255.0,
            blur: float = 0.6) -> np.ndarray:
     """Radiance ``(H, W, 3)`` in [0, 1] → an 8-bit camera frame.
@@ -266,9 +270,10 @@ def sensor(radiance, *, gray: bool, gain: float, noise_sigma: float, rng, exposu
     gain : float
         This frame's gain (flicker), multiplies the exposure.
     noise_sigma : float
-        Standard deviation of the Gaussian sensor noise (grey levels).
+        Standard deviation of the Gaussian sensor noise (grey levels), independent per pixel
+        and channel.
     rng : numpy.random.Generator
-        Source of the noise.
+        Draws this frame's noise seed.
     exposure : float
         Grey level of radiance 1.
     blur : float
@@ -278,15 +283,17 @@ def sensor(radiance, *, gray: bool, gain: float, noise_sigma: float, rng, exposu
     -------
     (H, W, 3) uint8
     """
-    img = radiance
+    from ._render_kernels import expose
+
+    img = np.asarray(radiance, dtype=np.float32)
     if gray:
         img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
     if blur > 0:
         img = cv2.GaussianBlur(img, (0, 0), blur)
-    img = img * np.float32(exposure * gain)
-    if noise_sigma > 0:
-        img = img + rng.standard_normal(img.shape, dtype=np.float32) * np.float32(noise_sigma)
-    out = np.clip(img + 0.5, 0, 255).astype(np.uint8)
-    if gray:
-        out = cv2.cvtColor(out, cv2.COLOR_GRAY2BGR)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    out = np.empty(img.shape[:2] + (3,), dtype=np.uint8)
+    seed = np.uint64(rng.integers(0, 2**63))
+    expose(np.ascontiguousarray(img), np.float32(exposure * gain), np.float32(noise_sigma),
+           NOISE_TABLE, seed, out)
     return out
