@@ -289,3 +289,36 @@ def test_gaussian_on_generator_masks(synthetic):
     # is low by design; carving removes it with the colour views. The person itself is found.
     assert tp / true > 0.95, tp / true
     assert tp / found > 0.4, tp / found
+
+
+def test_from_videos_one_component_per_video(tmp_path):
+    scene = Scene(seed=8)
+    paths = []
+    for i in range(2):
+        path = tmp_path / f"Background_{i + 1}_(C1).avi"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 60.0, (W, H))
+        for frame in scene.background_frames(6):
+            writer.write(frame)
+        writer.release()
+        paths.append(path)
+
+    def decoded(path):
+        cap = cv2.VideoCapture(str(path))
+        frames = []
+        while True:
+            ok, frame = cap.read()
+            if not ok:
+                return frames
+            frames.append(frame)
+
+    bg = GaussianBackground.from_videos(paths)
+    ref = GaussianBackground.fit_sets([decoded(p) for p in paths])
+    assert bg.n_components == 2 and bg.channels == 3
+    np.testing.assert_allclose(bg.means, ref.means)
+    np.testing.assert_allclose(bg.variances, ref.variances)
+    capped = GaussianBackground.from_videos(paths, max_frames=2)
+    np.testing.assert_allclose(capped.means[0],
+                               np.mean(np.stack(decoded(paths[0])[:2]).astype(float), axis=0),
+                               rtol=1e-6)
+    with pytest.raises(InputError, match="cannot open video"):
+        GaussianBackground.from_videos([tmp_path / "missing.avi"])
