@@ -115,17 +115,24 @@ class Renderer:
         """The empty scene's radiance ``(H, W, 3)`` float32 for a camera (a copy)."""
         return self._views[camera].background.copy()
 
-    def roi(self, camera: str, prims: Primitives) -> np.ndarray:
-        """``(u0, u1, v0, v1)`` int64 pixel box holding the body and its floor shadow."""
+    def roi(self, camera: str, prims: Primitives, *, body: bool = True, shadow: bool = True
+            ) -> np.ndarray:
+        """``(u0, u1, v0, v1)`` int64 pixel box holding the body and/or its floor shadow."""
         view = self._views[camera]
         cam = view.camera
         pts = prims.bounding_points()
         rad = prims.radii()
-        # Floor shadow: the points pushed along −LIGHT onto Z = 0, widened for the penumbra.
-        shadow = pts - (np.maximum(pts[:, 2], 0.0) / LIGHT[2])[:, None] * LIGHT[None, :]
-        shadow[:, 2] = 0.0
-        allp = np.concatenate([pts, shadow])
-        allr = np.concatenate([rad, 1.3 * rad + 40.0 + 0.1 * pts[:, 2] / LIGHT[2]])
+        allp, allr = [], []
+        if body:
+            allp.append(pts)
+            allr.append(rad)
+        if shadow:
+            # The points pushed along −LIGHT onto Z = 0, widened for the penumbra.
+            flat = pts - (np.maximum(pts[:, 2], 0.0) / LIGHT[2])[:, None] * LIGHT[None, :]
+            flat[:, 2] = 0.0
+            allp.append(flat)
+            allr.append(1.3 * rad + 40.0 + 0.1 * pts[:, 2] / LIGHT[2])
+        allp, allr = np.concatenate(allp), np.concatenate(allr)
         uv, z = cam.project(allp, return_depth=True)
         ok = z > 1.0
         W, H = cam.size
@@ -193,9 +200,7 @@ class Renderer:
         H, W = img.shape[:2]
         mask = np.zeros((H, W), dtype=bool)
         depth = np.zeros((H, W), dtype=np.float32)
-        roi = self.roi(camera, prims)
-        if roi[1] <= roi[0] or roi[3] <= roi[2]:
-            return img, mask
+        roi = self.roi(camera, prims, shadow=False)
         caps = np.ascontiguousarray(prims.capsules, dtype=np.float64)
         ells = np.ascontiguousarray(prims.ellipsoids, dtype=np.float64)
         light = LIGHT.astype(np.float64)
@@ -204,8 +209,8 @@ class Renderer:
             semi = 1.0 / np.linalg.svd(A, compute_uv=False)
             ell_r = semi.mean(axis=1)
             cap_cull, ell_cull = _shadow_discs(caps, ells[:, :3], semi.max(axis=1), ell_r)
-            K.floor_shadow(view.floor_points, view.is_floor, roi, caps, ells, ell_r, cap_cull,
-                           ell_cull, light, SHADOW_STRENGTH, img)
+            K.floor_shadow(view.floor_points, view.is_floor, self.roi(camera, prims, body=False),
+                           caps, ells, ell_r, cap_cull, ell_cull, light, SHADOW_STRENGTH, img)
         cap_boxes, ell_boxes = self.primitive_boxes(camera, prims)
         K.cast_body(view.rays, view.origin, roi, caps,
                     np.ascontiguousarray(prims.capsule_colours, dtype=np.float64), cap_boxes,
