@@ -31,6 +31,8 @@ _EPS_Q = 1e-9
 # trusted when q crosses 0 with slope 2·sqrt(disc) > 2·_SLOPE_MIN / voxel, i.e. when _EPS_Q and
 # rounding (≲ 1e-15) move it by far less than a tenth of a voxel. |q| ≤ _Q_MIN counts as zero.
 _NZ_MIN = 1e-9
+# Voxel centres closer than _DELTA voxel to a closed-form end are decided by _inside.
+_DELTA = 0.05
 _TP_TOL = 1e-5
 _SLOPE_MIN = 1e-7
 _Q_MIN = 1e-7
@@ -188,16 +190,25 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
     kf_lo = (lo + bz - oz) * inv_vs - 0.5
     kf_hi = (hi + bz - oz) * inv_vs - 0.5
     if lo_ok and hi_ok and not walk:
+        # the nearest voxel to each end: the closed form decides it when the end is more than
+        # _DELTA voxel from its centre (the closed form is good to ~_DELTA / 10), _inside otherwise
         klo = max(int(math.floor(kf_lo + 0.5)), kmin)
         khi = min(int(math.floor(kf_hi + 0.5)), kmax)
         if klo > khi:
             return 1, 0
-        in_lo = _inside(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z, inv_h, inv_w,
-                        length, k_r)
+        d_lo = klo - kf_lo
+        d_hi = kf_hi - khi
+        # branch-free in the common case: the rare near-centre ends take the predictable branch
+        in_lo = d_lo >= 0.0
+        if abs(d_lo) <= _DELTA:
+            in_lo = _inside(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z, inv_h, inv_w,
+                            length, k_r)
+        in_hi = d_hi >= 0.0
+        if abs(d_hi) <= _DELTA:
+            in_hi = _inside(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z, u2z, inv_h, inv_w,
+                            length, k_r)
         if khi == klo:
-            return (klo, klo) if in_lo else (1, 0)
-        in_hi = _inside(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z, u2z, inv_h, inv_w,
-                        length, k_r)
+            return (klo, klo) if in_lo and in_hi else (1, 0)
         return (klo if in_lo else klo + 1), (khi if in_hi else khi - 1)
     # uncertain closed form: scan the box column with the exact test from both ends
     if walk:

@@ -109,3 +109,16 @@ def test_nan_states_rejected():
     x[4] = np.nan
     with pytest.raises(InputError, match="root_pitch"):
         model.landmarks(x[None])
+
+
+def test_numba_kinematics_match_numpy_reference():
+    from voxelmocap.body.kinematics import forward_kinematics, forward_kinematics_numpy
+
+    rng = np.random.default_rng(9)
+    model = BodyModel()
+    x = rng.uniform(model.low, model.high, (64, 27))
+    fast = forward_kinematics(x, model.dimensions)
+    ref = forward_kinematics_numpy(x, model.dimensions)
+    for name in ("base", "axis", "u1", "u2", "joints"):
+        np.testing.assert_allclose(getattr(fast, name), getattr(ref, name), atol=1e-9,
+                                   err_msg=name)

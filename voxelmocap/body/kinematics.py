@@ -27,7 +27,14 @@ import numpy as np
 
 from .shapes import BodyDimensions
 
-__all__ = ["Kinematics", "forward_kinematics", "rotation_x", "rotation_y", "rotation_z"]
+__all__ = [
+    "Kinematics",
+    "forward_kinematics",
+    "forward_kinematics_numpy",
+    "rotation_x",
+    "rotation_y",
+    "rotation_z",
+]
 
 # Joint rows of Kinematics.joints follow the 15 landmarks (joints.LANDMARK_NAMES).
 THORAX, PELVIS, L_SHOULDER, L_ELBOW, L_WRIST, R_SHOULDER, R_ELBOW, R_WRIST = range(8)
@@ -93,7 +100,33 @@ def _apply(rot, vec):
 
 
 def forward_kinematics(states, dims: BodyDimensions) -> Kinematics:
-    """Joint positions and part frames of a batch of states.
+    """Joint positions and part frames of a batch of states (numba kernel).
+
+    Same numbers (to rounding) as :func:`forward_kinematics_numpy`, the readable reference.
+
+    Parameters
+    ----------
+    states : (P, 27) float ndarray
+        Pose states (mm, rad), already validated (finite).
+    dims : BodyDimensions
+        Subject skeleton.
+
+    Returns
+    -------
+    Kinematics
+    """
+    from ._kinematics_kernels import dims_vector, forward
+
+    x = np.ascontiguousarray(states, dtype=np.float64)
+    P = x.shape[0]
+    base, axis, u1, u2 = (np.empty((P, 10, 3)) for _ in range(4))
+    joints = np.empty((P, 15, 3))
+    forward(x, dims_vector(dims), base, axis, u1, u2, joints)
+    return Kinematics(base=base, axis=axis, u1=u1, u2=u2, joints=joints)
+
+
+def forward_kinematics_numpy(states, dims: BodyDimensions) -> Kinematics:
+    """Joint positions and part frames of a batch of states (numpy reference).
 
     Parameters
     ----------
