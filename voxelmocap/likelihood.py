@@ -30,11 +30,10 @@ A part that contains no voxel centre at all (only possible with voxels larger th
 ``Out = DO = 0`` and ``Empty = Surf = 1``.
 
 Overlap at the joints. Parts meet at joints without blending, so neighbouring cones overlap a
-little even in a neutral pose: in the average adult's standing pose at 20 mm voxels the upper arms
-share about 25 % of their voxels with the torso (the shoulder sits 185 mm from the axis, the chest
-is 170 mm wide), the head about 8 % and the other parts a few % (forearm/upper arm and shin/thigh
-at the elbow and knee); see ``docs/body_model.md`` for the table. These constant offsets do not
-move the maximum of the likelihood.
+little even in natural poses: standing with the arms hanging straight at 20 mm voxels, ρ_DO is
+19 % for the upper arms (their inner side enters the chest), 9 % for the forearms (they brush the
+hips), 3 % for the torso and 0 for the head and legs; walking with the arms slightly abducted it
+is 6 %, 2–4 %, 1 % and below 1 %. See ``docs/body_model.md``.
 
 >>> from voxelmocap.body import BodyModel
 >>> from voxelmocap.grid import VoxelGrid

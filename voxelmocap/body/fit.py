@@ -9,8 +9,13 @@ the papers do.
 >>> from voxelmocap.body import BodyModel
 >>> model = BodyModel()
 >>> x = model.default_state(); x[17] = 1.0           # bend the left elbow
->>> bool(np.allclose(fit_to_landmarks(model, model.landmarks(x[None])[0]), x, atol=1e-4))
+>>> target = model.landmarks(x[None])[0]
+>>> fit = fit_to_landmarks(model, target)
+>>> bool(np.abs(model.landmarks(fit[None])[0] - target).max() < 1e-6)
 True
+
+A straight elbow or knee leaves the twist of its limb undetermined (any value fits); the fit
+then keeps the closed-form guess's value (0).
 """
 
 from __future__ import annotations
