@@ -73,6 +73,11 @@ def main() -> None:
                        np.random.default_rng(0), 1.0, False)
     bg_time = time.perf_counter() - t0
 
+    # Side-by-side kernel timings single-threaded: on a shared 2-core machine, thread scheduling
+    # noise would otherwise swamp the ratios.
+    import numba
+
+    numba.set_num_threads(1)
     renderer = Renderer(rig)
     shape = BodyShape.for_subject("S1", 1750)
     pts = procedural_points("walk", np.arange(20) / 60.0)
@@ -137,12 +142,13 @@ def main() -> None:
           f"{size / 1e6:.0f} MB written")
     print(f"background videos (7 x 120 frames, written by the same run of generate): "
           f"{bg_time:.1f} s")
-    print(f"ray casting per image: ROI + per-primitive boxes {1000 * med(roi_t):.2f} ms | ROI "
+    print("per image, single-threaded, medians:")
+    print(f"  ray casting: ROI + per-primitive boxes {1000 * med(roi_t):.2f} ms | ROI "
           f"only {1000 * med(nobox_t):.2f} ms (x{med(nobox_t) / med(roi_t):.1f}) | whole image, "
           f"no boxes {1000 * med(full_t):.2f} ms (x{med(full_t) / med(roi_t):.1f})")
-    print(f"floor shadow per image: culled {1000 * med(cull_t):.2f} ms vs unculled "
+    print(f"  floor shadow: culled {1000 * med(cull_t):.2f} ms vs unculled "
           f"{1000 * med(nocull_t):.2f} ms -> x{med(nocull_t) / med(cull_t):.1f}")
-    print(f"sensor model per image: colour {1000 * sens_c:.2f} ms, grey {1000 * sens_g:.2f} ms")
+    print(f"  sensor model: colour {1000 * sens_c:.2f} ms, grey {1000 * sens_g:.2f} ms")
     print(f"load average during the run: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
 
 

@@ -46,6 +46,7 @@ _ACTION = re.compile(r"^[A-Za-z]+$")
 MIN_LEAD = 5
 NOISE_SIGMA = 2.0        # grey levels of sensor noise at noise = 1
 FLICKER = 0.006          # relative per-frame gain jitter at noise = 1
+BLUR = 0.6               # optical blur sigma (pixels)
 
 
 def default_rig_path() -> Path:
@@ -218,7 +219,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
                     radiance, mask = renderer.render(cam.name, prims)
                     gain = _gain(noise_rng, noise, k / fps, phase[cam.name])
                     img = sensor(radiance, gray=cam.name.upper().startswith("BW"), gain=gain,
-                                 noise_sigma=sigma, rng=noise_rng)
+                                 noise_sigma=sigma, rng=noise_rng, blur=BLUR)
                     writers[cam.name].write(img)
                     if render_masks and F >= 1:
                         ok = cv2.imwrite(str(mask_dirs[cam.name] / f"{F:05d}.png"),
@@ -262,7 +263,9 @@ def _write_backgrounds(renderer, rig, folder: Path, codec, fps, n, rng, noise, p
 
     folder.mkdir(parents=True, exist_ok=True)
     for cam in rig:
-        bg = renderer.background(cam.name)
+        # The blur is linear and the gain a scalar, so blurring the static radiance once gives
+        # the same frames as blurring each one.
+        bg = cv2.GaussianBlur(renderer.background(cam.name), (0, 0), BLUR)
         writer = _open_writer(folder / f"Background_1_({cam.name}).avi", codec, fps, cam.size)
         phase = rng.uniform(0, 2 * np.pi)
         try:
@@ -270,7 +273,7 @@ def _write_backgrounds(renderer, rig, folder: Path, codec, fps, n, rng, noise, p
                           leave=False):
                 img = sensor(bg, gray=cam.name.upper().startswith("BW"),
                              gain=_gain(rng, noise, k / fps, phase), noise_sigma=NOISE_SIGMA * noise,
-                             rng=rng)
+                             rng=rng, blur=0.0)
                 writer.write(img)
         finally:
             writer.release()
