@@ -21,8 +21,8 @@ first empty view. Before that, whole bricks of 6×6×6 voxels are rejected at on
 rectangle per camera is stored with the tables, and a rectangle without silhouette pixels (one
 look-up in the mask's integral image) proves the camera carves the whole brick, so the empty room
 around the person costs one test per brick instead of one per voxel. :func:`carve` keeps the last
-two carvers in a cache. :func:`carve_reference` is
-the plain NumPy implementation the tests compare against.
+two carvers in a cache. :func:`carve_reference` is the plain NumPy implementation (straight through
+``Camera.project``) that the tests compare against voxel for voxel.
 
 >>> from voxelmocap.camera import Rig
 >>> rig = Rig.from_folder("calib/humaneva_i_like")                      # doctest: +SKIP
@@ -36,6 +36,7 @@ from __future__ import annotations
 import warnings
 from collections import OrderedDict
 
+import cv2
 import numpy as np
 
 from . import _carving_kernels as _k
@@ -272,8 +273,6 @@ class Carver:
 
     def _integrals(self, buf: np.ndarray) -> np.ndarray:
         """Concatenated ``(H + 1, W + 1)`` int32 integral images of the flat mask buffer."""
-        import cv2
-
         parts = []
         for c, cam in enumerate(self.cameras):
             w, h = int(cam.size[0]), int(cam.size[1])
