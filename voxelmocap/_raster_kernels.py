@@ -59,6 +59,12 @@ def _inside(tp, ap, bp, dz, nz, u1z, u2z, inv_h, inv_w, length, k_r):
 
 
 @njit(cache=True)
+def _inside_outlined(tp, ap, bp, dz, nz, u1z, u2z, inv_h, inv_w, length, k_r):
+    """:func:`_inside` as a real call, for the rare scans (keeps the inlined code small)."""
+    return _inside(tp, ap, bp, dz, nz, u1z, u2z, inv_h, inv_w, length, k_r)
+
+
+@njit(cache=True)
 def _part_bbox(base, axis, u1, u2, shp, ox, oy, oz, vs, bb):
     """Lattice index box ``bb = (i0, i1, j0, j1, k0, k1)`` (inclusive) of one cone."""
     h, w, r, length = shp[4], shp[5], shp[6], shp[2]
@@ -122,16 +128,17 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
         return 1, 0
     slope_min = _SLOPE_MIN / vs
     disc = qb * qb - qa * qc
+    inv_qa = 1.0 / qa if qa != 0.0 else 0.0  # loop-invariant (qa depends on the part only)
     if qa > 0.0:
         if disc < 0.0:
             return 1, 0
         root_ok = math.sqrt(disc) > slope_min
         qq = -(qb + math.copysign(math.sqrt(disc), qb))
         if qq == 0.0:
-            r1 = r2 = -qb / qa
+            r1 = r2 = -qb * inv_qa
         else:
-            r1 = min(qq / qa, qc / qq)
-            r2 = max(qq / qa, qc / qq)
+            r1 = min(qq * inv_qa, qc / qq)
+            r2 = max(qq * inv_qa, qc / qq)
         if r1 > lo:
             lo = r1
             lo_ok = root_ok
@@ -143,10 +150,10 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
             root_ok = math.sqrt(disc) > slope_min
             qq = -(qb + math.copysign(math.sqrt(disc), qb))
             if qq == 0.0:
-                rs = rb = -qb / qa
+                rs = rb = -qb * inv_qa
             else:
-                rs = min(qq / qa, qc / qq)
-                rb = max(qq / qa, qc / qq)
+                rs = min(qq * inv_qa, qc / qq)
+                rb = max(qq * inv_qa, qc / qq)
             piece_a = min(hi, rs) >= lo
             piece_b = max(lo, rb) <= hi
             if piece_a and not piece_b:
@@ -217,18 +224,18 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
     else:
         klo = max(int(math.ceil(max(kf_lo, kmin - 1.0))) - 1, kmin)
         khi = min(int(math.floor(min(kf_hi, kmax + 1.0))) + 1, kmax)
-    while klo <= khi and not _inside(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z,
+    while klo <= khi and not _inside_outlined(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z,
                                      inv_h, inv_w, length, k_r):
         klo += 1
-    while khi >= klo and not _inside(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z, u2z,
+    while khi >= klo and not _inside_outlined(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z, u2z,
                                      inv_h, inv_w, length, k_r):
         khi -= 1
     if klo > khi:
         return 1, 0
-    while klo > kmin and _inside(tp, ap, bp, oz + (klo - 0.5) * vs - bz, nz, u1z, u2z,
+    while klo > kmin and _inside_outlined(tp, ap, bp, oz + (klo - 0.5) * vs - bz, nz, u1z, u2z,
                                  inv_h, inv_w, length, k_r):
         klo -= 1
-    while khi < kmax and _inside(tp, ap, bp, oz + (khi + 1.5) * vs - bz, nz, u1z, u2z,
+    while khi < kmax and _inside_outlined(tp, ap, bp, oz + (khi + 1.5) * vs - bz, nz, u1z, u2z,
                                  inv_h, inv_w, length, k_r):
         khi += 1
     return klo, khi
@@ -350,7 +357,7 @@ def _score(nx, ny, nz, prefix, qmax, bb, runs, counts):
 
 
 @njit(cache=True)
-def _double_occupancy(bb, runs, cover, cover_n, tmp_lo, tmp_hi, run_lo, run_hi, counts):
+def _double_occupancy(bb, runs, cover, cover_n, multi, tmp_lo, tmp_hi, run_lo, run_hi, counts):
     """DO counts (``counts[:, 2]``).
 
     Per column of the union box: the parts with a run there (``cover (·, n_parts, 3)`` = part,
@@ -370,6 +377,7 @@ def _double_occupancy(bb, runs, cover, cover_n, tmp_lo, tmp_hi, run_lo, run_hi, 
     nuj = uj1 - uj0 + 1
     ncol = (ui1 - ui0 + 1) * nuj
     cover_n[:ncol] = 0
+    n_multi = 0
     for q in range(n_parts):
         counts[q, 2] = 0
         i0, i1, j0, j1, off = bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3], bb[q, 6]
@@ -387,10 +395,12 @@ def _double_occupancy(bb, runs, cover, cover_n, tmp_lo, tmp_hi, run_lo, run_hi, 
                     cover[c, n, 1] = lo
                     cover[c, n, 2] = hi
                     cover_n[c] = n + 1
-    for c in range(ncol):
+                    if n == 1:  # the column now has two runs: visit it below
+                        multi[n_multi] = c
+                        n_multi += 1
+    for mm in range(n_multi):
+        c = multi[mm]
         m = cover_n[c]
-        if m < 2:
-            continue
         # the column's runs sorted by start
         for a in range(m):
             lo_a = cover[c, a, 1]
@@ -454,6 +464,7 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
         run_hi = np.empty(n_parts, np.int64)
         cover = np.empty((4096, n_parts, 3), np.int64)
         cover_n = np.empty(4096, np.int64)
+        multi = np.empty(4096, np.int64)
         for p in range(c, n_particles, n_chunks):
             total = _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
             if total > runs.shape[0]:
@@ -462,9 +473,11 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
             if ncol > cover_n.shape[0]:
                 cover = np.empty((2 * ncol, n_parts, 3), np.int64)
                 cover_n = np.empty(2 * ncol, np.int64)
+                multi = np.empty(2 * ncol, np.int64)
             _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs)
             _score(nx, ny, nz, prefix, qmax, bb, runs, counts[p])
-            _double_occupancy(bb, runs, cover, cover_n, tmp_lo, tmp_hi, run_lo, run_hi, counts[p])
+            _double_occupancy(bb, runs, cover, cover_n, multi, tmp_lo, tmp_hi, run_lo, run_hi,
+                              counts[p])
 
 
 @njit(cache=True)
