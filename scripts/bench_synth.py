@@ -73,11 +73,6 @@ def main() -> None:
                        np.random.default_rng(0), 1.0, False)
     bg_time = time.perf_counter() - t0
 
-    # Side-by-side kernel timings single-threaded: on a shared 2-core machine, thread scheduling
-    # noise would otherwise swamp the ratios.
-    import numba
-
-    numba.set_num_threads(1)
     renderer = Renderer(rig)
     shape = BodyShape.for_subject("S1", 1750)
     pts = procedural_points("walk", np.arange(20) / 60.0)
@@ -142,7 +137,7 @@ def main() -> None:
           f"{size / 1e6:.0f} MB written")
     print(f"background videos (7 x 120 frames, written by the same run of generate): "
           f"{bg_time:.1f} s")
-    print("per image, single-threaded, medians:")
+    print("per image (serial kernels), medians:")
     print(f"  ray casting: ROI + per-primitive boxes {1000 * med(roi_t):.2f} ms | ROI "
           f"only {1000 * med(nobox_t):.2f} ms (x{med(nobox_t) / med(roi_t):.1f}) | whole image, "
           f"no boxes {1000 * med(full_t):.2f} ms (x{med(full_t) / med(roi_t):.1f})")

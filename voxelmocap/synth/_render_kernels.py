@@ -5,6 +5,11 @@ unit directions (the lens distortion is inverted once per camera, so projection 
 the full camera model); each pixel of a region of interest keeps the nearest hit among all
 primitives and the static background (whose depth is given), so occlusion between body parts
 and by static objects is exact.
+
+The kernels are serial on purpose: one image's work is 1–3 ms, and on a shared 2-core machine
+``parallel=True`` made a whole sequence 3–4 times slower (wall and CPU) because the worker threads
+wait for each other on every call (measured with ``scripts/bench_synth.py``-style runs:
+40 frames × 7 cameras, 4.4 s with one thread against 18 s with two).
 """
 
 from __future__ import annotations
@@ -72,7 +77,7 @@ def ray_ellipsoid(ox, oy, oz, dx, dy, dz, ell):
     return t if t > 0.0 else -1.0
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def cast_body(rays, origin, roi, capsules, cap_colours, cap_boxes, ellipsoids, ell_colours,
               ell_boxes, bg_depth, light, ambient, image, mask, depth):
     """Ray-cast the body into ``image`` over a region of interest.
@@ -106,7 +111,7 @@ def cast_body(rays, origin, roi, capsules, cap_colours, cap_boxes, ellipsoids, e
     ox, oy, oz = origin[0], origin[1], origin[2]
     nc = capsules.shape[0]
     ne = ellipsoids.shape[0]
-    for v in numba.prange(v0, v1):
+    for v in range(v0, v1):
         for u in range(u0, u1):
             dx, dy, dz = rays[v, u, 0], rays[v, u, 1], rays[v, u, 2]
             best = bg_depth[v, u]
@@ -159,7 +164,7 @@ def cast_body(rays, origin, roi, capsules, cap_colours, cap_boxes, ellipsoids, e
             depth[v, u] = best
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def floor_shadow(floor_points, is_floor, roi, capsules, ellipsoids, ell_radius, cap_cull,
                  ell_cull, light, strength, image):
     """Darken floor pixels shadowed by the body, with a penumbra growing with distance.
@@ -187,7 +192,7 @@ def floor_shadow(floor_points, is_floor, roi, capsules, ellipsoids, ell_radius, 
     """
     u0, u1, v0, v1 = roi[0], roi[1], roi[2], roi[3]
     lx, ly, lz = light[0], light[1], light[2]
-    for v in numba.prange(v0, v1):
+    for v in range(v0, v1):
         for u in range(u0, u1):
             if not is_floor[v, u]:
                 continue
@@ -248,7 +253,7 @@ def _mix64(z):
     return z ^ (z >> np.uint64(31))
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def expose(radiance, scale, sigma, table, seed, out):
     """Sensor response: ``out = clip(radiance · scale + sigma · n + 0.5)`` as uint8.
 
@@ -273,8 +278,8 @@ def expose(radiance, scale, sigma, table, seed, out):
     H, W, C = radiance.shape
     shift = np.uint64(64 - int(np.log2(table.shape[0])))
     golden = np.uint64(0x9E3779B97F4A7C15)
-    for v in numba.prange(H):
-        # one xorshift64 stream per row, seeded by a hash of (seed, row): parallel and reproducible
+    for v in range(H):
+        # one xorshift64 stream per row, seeded by a hash of (seed, row): reproducible
         state = _mix64(seed + np.uint64(v + 1) * golden) | np.uint64(1)
         for u in range(W):
             for ch in range(C):
