@@ -9,6 +9,11 @@ The kernel is warmed before timing (first-call time, including numba's cache loa
 printed separately). Times are medians over repeats; the ratio is measured side by side in one run.
 
     python scripts/bench_likelihood.py [--particles 600] [--repeats 5] [--reference 20]
+    python scripts/bench_likelihood.py --validate 3000   # fast == reference on random poses
+
+``--validate N`` instead compares the integer counts of the fast kernel and the reference on N
+random legal poses (batches of 100 at voxel sizes of 10–50 mm, random grid offsets, a third of the
+batches with cylinder upper arms (R = 1), 30 % of the angles snapped to multiples of 45°).
 """
 
 from __future__ import annotations
@@ -63,6 +68,36 @@ def median_time(fn, repeats: int) -> tuple[float, float]:
     return float(np.median(wall)), float(np.median(cpu))
 
 
+def validate(n_poses: int, seed: int = 123) -> int:
+    """Compare fast and reference counts on random poses; return the number of differing poses."""
+    from voxelmocap.body import BodyDimensions
+
+    rng = np.random.default_rng(seed)
+    bad = total = 0
+    for batch in range(max(1, n_poses // 100)):
+        vs = float(rng.choice([10.0, 15.0, 20.0, 25.0, 33.3, 40.0, 50.0]))
+        dims = BodyDimensions.average(rng.uniform(1500, 1950))
+        if batch % 3 == 0:
+            dims = dims.replace(w_forearm=dims.w_upper_arm)
+        model = BodyModel(dims)
+        shape = tuple(int(v) for v in np.ceil(np.full(3, 2000.0) / vs))
+        grid = VoxelGrid((-1000.0 + rng.choice([0.0, rng.uniform(-vs, vs)]), -1000.0, 0.0), vs,
+                         shape)
+        meas = Measurement(rng.random(grid.shape) < 0.3, grid)
+        x = rng.uniform(model.low, model.high, (100, 27))
+        x[:, :2] = rng.uniform(-900, 900, (100, 2))
+        snap = rng.random(x.shape) < 0.3
+        snap[:, :3] = False
+        cols = np.nonzero(snap)[1]
+        x[snap] = np.clip(np.round(x[snap] / (np.pi / 4)) * (np.pi / 4), model.low[cols],
+                          model.high[cols])
+        diff = part_counts(meas, model, x) != part_counts_reference(meas, model, x)
+        bad += int(diff.any(axis=(1, 2)).sum())
+        total += len(x)
+    print(f"validate: {bad} of {total} random poses differ between fast and reference counts")
+    return bad
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--particles", type=int, default=600)
@@ -70,7 +105,11 @@ def main(argv=None) -> int:
     ap.add_argument("--reference", type=int, default=20, help="particles timed with the reference")
     ap.add_argument("--phases", type=int, default=3)
     ap.add_argument("--voxel", type=float, default=20.0)
+    ap.add_argument("--validate", type=int, default=0, metavar="N",
+                    help="compare fast and reference on N random poses instead of timing")
     args = ap.parse_args(argv)
+    if args.validate:
+        return 1 if validate(args.validate) else 0
 
     model = BodyModel()
     grid = VoxelGrid.from_bounds((-1500.0, -1500.0, 0.0), (1500.0, 1500.0, 2200.0), args.voxel)

@@ -111,12 +111,10 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
         inv_nz = 1.0 / nz  # loop-invariant: hoisted out of the column loops once inlined
         za = -tp * inv_nz
         zb = (length - tp) * inv_nz
-        if min(za, zb) > lo:
-            lo = min(za, zb)
-            lo_ok = True
-        if max(za, zb) < hi:
-            hi = max(za, zb)
-            hi_ok = True
+        lo_ok = min(za, zb) > lo
+        hi_ok = max(za, zb) < hi
+        lo = max(lo, min(za, zb))
+        hi = min(hi, max(za, zb))
     else:
         # t = tp + dz·nz hardly varies along the column (and rounds to tp in _inside when
         # |dz·nz| is below tp's last bit): decide from tp, or walk when tp is near 0 or L
@@ -139,12 +137,11 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
         else:
             r1 = min(qq * inv_qa, qc / qq)
             r2 = max(qq * inv_qa, qc / qq)
-        if r1 > lo:
-            lo = r1
-            lo_ok = root_ok
-        if r2 < hi:
-            hi = r2
-            hi_ok = root_ok
+        # selects rather than branches: which constraint binds varies from column to column
+        lo_ok = root_ok if r1 > lo else lo_ok
+        hi_ok = root_ok if r2 < hi else hi_ok
+        lo = max(lo, r1)
+        hi = min(hi, r2)
     elif qa < 0.0:
         if disc >= 0.0:
             root_ok = math.sqrt(disc) > slope_min
