@@ -454,14 +454,15 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
     n_chunks = max(1, min(n_particles, n_chunks))
     for c in prange(n_chunks):
         bb = np.empty((n_parts, 7), np.int64)
-        runs = np.empty((4096, 2), np.int64)
+        # scratch sized for a typical particle at 20 mm voxels; grown on demand
+        runs = np.empty((2048, 2), np.int64)
         tmp_lo = np.empty(n_parts, np.int64)
         tmp_hi = np.empty(n_parts, np.int64)
         run_lo = np.empty(n_parts, np.int64)
         run_hi = np.empty(n_parts, np.int64)
-        cover = np.empty((4096, n_parts, 3), np.int64)
-        cover_n = np.empty(4096, np.int64)
-        multi = np.empty(4096, np.int64)
+        cover = np.empty((2048, n_parts, 3), np.int64)
+        cover_n = np.empty(2048, np.int64)
+        multi = np.empty(2048, np.int64)
         for p in range(c, n_particles, n_chunks):
             total = _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
             if total > runs.shape[0]:

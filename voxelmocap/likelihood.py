@@ -183,7 +183,7 @@ def part_counts(measurement: Measurement, model, states, *, clip: bool = False) 
     g = measurement.grid
     counts = np.zeros((geo.n_particles, len(model.parts), _k.N_COUNTS), dtype=np.int64)
     _k.part_counts(geo.base, geo.axis, geo.u1, geo.u2, geo.shape, *g.origin, g.voxel_size,
-                   measurement.prefix, QMAX, 4 * numba.get_num_threads(), counts)
+                   measurement.prefix, QMAX, numba.get_num_threads(), counts)
     return counts
 
 
