@@ -248,3 +248,21 @@ def test_bad_input(rig, grid, carver, sphere_masks):
     huge = VoxelGrid(origin=(0, 0, 0), voxel_size=1.0, shape=(5000, 5000, 2000))
     with pytest.raises(InputError, match=r"would need .* GB"):
         Carver(rig, huge)
+
+
+def test_tables_are_camera_project(rig, grid, carver):
+    """Every table entry is Camera.project's rounded pixel (or -1 where the camera does not see)."""
+    centres = grid.centres()
+    offset = 0
+    for c, cam in enumerate(rig):
+        pix, depth = cam.project(centres, return_depth=True)
+        xc = cam.world_to_camera(centres)
+        r2 = (xc[:, 0] ** 2 + xc[:, 1] ** 2) / xc[:, 2] ** 2
+        ok = (depth > 0) & (r2 <= fov_radius(cam) ** 2)
+        u = np.rint(np.where(ok, pix[:, 0], -1.0))
+        v = np.rint(np.where(ok, pix[:, 1], -1.0))
+        ok &= (u >= 0) & (u < cam.width) & (v >= 0) & (v < cam.height)
+        expected = np.where(ok, offset + v * cam.width + u, -1).astype(np.int64)
+        assert np.array_equal(carver.tables[c], expected), cam.name
+        assert 0 < ok.sum() < len(ok)  # both seen and unseen voxels are exercised
+        offset += cam.width * cam.height

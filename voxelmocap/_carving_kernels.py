@@ -17,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["brick_bounds", "carve_all_views", "carve_bricks", "carve_min_views", "count_views"]
+__all__ = ["brick_bounds", "carve_all_views", "carve_bricks", "carve_min_views", "count_views",
+           "project_table"]
 
 
 @njit(cache=True, parallel=True)
@@ -261,3 +262,65 @@ def carve_bricks(tables, masks, integrals, int_offsets, int_widths, rects, full,
                                 if hits >= min_views:
                                     break
                         out[v] = hits >= min_views
+
+
+# ---------------------------------------------------------------------- tables
+@njit(cache=True, parallel=True)
+def project_table(R, T, fc, cc, alpha, kc, r_max, origin, size, nx, ny, nz, width, height,
+                  offset, out):  # pragma: no cover - compiled
+    """One camera's row of the voxel → pixel table (Bouguet model, as ``Camera.project``).
+
+    Parameters
+    ----------
+    R : (3, 3) float64 ndarray
+        World → camera rotation.
+    T : (3,) float64 ndarray
+        World → camera translation (mm).
+    fc, cc : (2,) float64 ndarray
+        Focal lengths and principal point (pixels).
+    alpha : float
+        Skew.
+    kc : (5,) float64 ndarray
+        Distortion ``k1, k2, p1, p2, k3``.
+    r_max : float
+        Largest trusted undistorted normalised radius (field of view).
+    origin : (3,) float64 ndarray
+        Grid corner (mm).
+    size : float
+        Voxel edge (mm).
+    nx, ny, nz : int
+        Grid shape.
+    width, height : int
+        Image size.
+    offset : int
+        Offset of this camera's mask in the concatenated buffer.
+    out : (nx * ny * nz,) int32 ndarray
+        Written with ``offset + row * width + column``, or -1 where the camera does not see the
+        voxel centre (behind, outside the field of view, or rounding outside the image).
+    """
+    k1, k2, p1, p2, k3 = kc[0], kc[1], kc[2], kc[3], kc[4]
+    r2max = r_max * r_max
+    for i in prange(nx):
+        x = origin[0] + (i + 0.5) * size
+        for j in range(ny):
+            y = origin[1] + (j + 0.5) * size
+            base = (i * ny + j) * nz
+            for k in range(nz):
+                w = origin[2] + (k + 0.5) * size
+                xc = R[0, 0] * x + R[0, 1] * y + R[0, 2] * w + T[0]
+                yc = R[1, 0] * x + R[1, 1] * y + R[1, 2] * w + T[1]
+                zc = R[2, 0] * x + R[2, 1] * y + R[2, 2] * w + T[2]
+                idx = -1
+                if zc > 0:
+                    a = xc / zc
+                    b = yc / zc
+                    r2 = a * a + b * b
+                    if r2 <= r2max:
+                        radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
+                        xd = a * radial + 2.0 * p1 * a * b + p2 * (r2 + 2.0 * a * a)
+                        yd = b * radial + p1 * (r2 + 2.0 * b * b) + 2.0 * p2 * a * b
+                        u = np.rint(fc[0] * (xd + alpha * yd) + cc[0])
+                        v = np.rint(fc[1] * yd + cc[1])
+                        if u >= 0 and u < width and v >= 0 and v < height:
+                            idx = offset + int(v) * width + int(u)
+                out[base + k] = idx

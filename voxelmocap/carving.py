@@ -57,9 +57,6 @@ __all__ = [
 #: border (beyond it the distortion polynomial may fold points back into the image).
 FOV_MARGIN = 1.05
 
-#: Voxels projected per chunk while building the tables (bounds the temporary memory to ~100 MB).
-_CHUNK = 1 << 19
-
 #: Edge (voxels) of the bricks rejected as a whole when a camera sees only background there.
 BRICK = 6
 
@@ -246,16 +243,18 @@ class Carver:
 
     def _build_tables(self) -> np.ndarray:
         grid = self.grid
-        n = grid.n_voxels
-        tables = np.empty((len(self.cameras), n), dtype=np.int32)
-        radii = [fov_radius(c) for c in self.cameras]
-        for start in range(0, n, _CHUNK):
-            flat = np.arange(start, min(start + _CHUNK, n))
-            centres = grid.centre_of(np.stack(np.unravel_index(flat, grid.shape), axis=1))
-            for c, cam in enumerate(self.cameras):
-                u, v, seen = visible(cam, centres, r_max=radii[c])
-                idx = self._offsets[c] + v * int(cam.size[0]) + u
-                tables[c, start:start + len(flat)] = np.where(seen, idx, -1)
+        nx, ny, nz = grid.shape
+        tables = np.empty((len(self.cameras), grid.n_voxels), dtype=np.int32)
+        for c, cam in enumerate(self.cameras):
+            # the kernel is Camera.project written out per voxel centre (see visible() for the
+            # NumPy form); tests compare the tables with Camera.project voxel for voxel
+            _k.project_table(np.ascontiguousarray(cam.R, dtype=float),
+                             np.ascontiguousarray(cam.T, dtype=float),
+                             np.ascontiguousarray(cam.fc, dtype=float),
+                             np.ascontiguousarray(cam.cc, dtype=float), float(cam.alpha_c),
+                             np.ascontiguousarray(cam.kc, dtype=float), fov_radius(cam),
+                             grid.low, float(grid.voxel_size), nx, ny, nz, int(cam.size[0]),
+                             int(cam.size[1]), int(self._offsets[c]), tables[c])
         return tables
 
     def _build_bricks(self) -> None:
