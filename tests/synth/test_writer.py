@@ -223,3 +223,21 @@ def test_bvh_clip_renders_with_its_truth_on_the_person(tmp_path):
                               cv2.IMREAD_GRAYSCALE) > 0
             uv = np.round(seq.rig[cam].project(marks[F - 1])).astype(int)
             assert all(mask[v, u] for u, v in uv)
+
+
+def test_one_body_per_subject(tmp_path):
+    kw = dict(frames=2, cameras=["C1"], background_frames=2, progress=False)
+    root = generate(tmp_path / "d", motion="walk", subject="S3", seed=1, **kw)
+    first = tomllib.loads((root / "S3" / "Mocap_Data" / "S3_body.toml").read_text())
+    generate(root, motion="jog", subject="S3", seed=9, **kw)  # same subject, other motion/seed
+    second = tomllib.loads((root / "S3" / "Mocap_Data" / "S3_body.toml").read_text())
+    assert second["subject"] == first["subject"] and second["widths_mm"] == first["widths_mm"]
+    for key in ("upper_arm", "forearm", "thigh", "shin"):  # rigid bones: identical
+        assert second["lengths_mm"][key] == first["lengths_mm"][key]
+    for key, value in first["lengths_mm"].items():  # the rest: means over frames, ~equal
+        np.testing.assert_allclose(second["lengths_mm"][key], value, atol=2.0)
+    path = MOCAP / "dataset-1_punch_normal_002.bvh"
+    if path.exists():  # a clip of another person cannot join S3
+        with pytest.raises(InputError, match="another body"):
+            generate(root, motion=str(path), subject="S3", action="Box", **kw)
+        assert not (root / "S3" / "Image_Data" / "Box_1_(C1).avi").exists()

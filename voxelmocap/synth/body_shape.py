@@ -211,7 +211,9 @@ def body_primitives(points, shape: BodyShape) -> Primitives:
                   (1.25 * shape.upper_arm, 1.12 * shape.upper_arm, 1.12 * shape.upper_arm), "shirt")
         ellipsoid(s + (e - s) * 0.28, ua, (0.32 * ua_len, 1.14 * shape.upper_arm,
                                             1.12 * shape.upper_arm), "shirt")
-        capsule(s, e, shape.upper_arm, "skin")
+        # the sleeve covers the top of the arm; bare skin from just above the elbow
+        capsule(s, s + (e - s) * 0.45, 1.06 * shape.upper_arm, "shirt")
+        capsule(s + (e - s) * 0.45, e, shape.upper_arm, "skin")
         mid = e + (w - e) * 0.45
         capsule(e, mid, shape.forearm, "skin")
         capsule(mid, w, 0.78 * shape.forearm, "skin")
@@ -244,7 +246,7 @@ def body_primitives(points, shape: BodyShape) -> Primitives:
     return Primitives(np.array(caps), np.array(cap_col), np.array(ells), np.array(ell_col))
 
 
-def subject_body(points, shape: BodyShape, subject: str) -> dict:
+def subject_body(points, shape: BodyShape, subject: str, *, height: float | None = None) -> dict:
     """The subject file content (``voxelmocap-body-1``) measured from canonical points.
 
     Lengths are the means over frames of the ground-truth geometry, as a motion-capture lab would
@@ -258,6 +260,8 @@ def subject_body(points, shape: BodyShape, subject: str) -> dict:
         The rendered body's widths.
     subject : str
         Subject name.
+    height : float, optional
+        Standing stature (mm); default the highest head top in ``points``.
 
     Returns
     -------
@@ -284,7 +288,8 @@ def subject_body(points, shape: BodyShape, subject: str) -> dict:
     pair = lambda a, b: [r(a), r(b)]  # noqa: E731
     return {
         "format": "voxelmocap-body-1",
-        "subject": {"name": subject, "height_mm": r(np.max(P[:, _C["head_top"], 2]))},
+        "subject": {"name": subject, "height_mm": r(height if height is not None
+                                                   else np.max(P[:, _C["head_top"], 2]))},
         "lengths_mm": {
             "torso": r(seg("pelvis", "thorax")),
             "head": r(seg("thorax", "head_top")),

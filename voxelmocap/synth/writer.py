@@ -31,8 +31,14 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from .body_shape import BodyShape, body_primitives, subject_body
-from .resample import motion_source, place_in_area, sample_motion
+from .body_shape import BodyShape, _subject_rng, body_primitives, subject_body
+from .resample import (
+    ProceduralSource,
+    motion_source,
+    place_in_area,
+    sample_motion,
+    stature_estimate,
+)
 from .scene import sensor
 from .skeletons import endpoints_from_canonical
 
@@ -174,7 +180,9 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     # Synchronised frames 1 - d_max … N (the leads) at times start + (F - 1 + d_max) / fps.
     total = frames + d_max
     if src_probe.duration == np.inf:
-        height = float(np.random.default_rng([seed, 7]).uniform(1650, 1850))
+        # A procedural subject's stature belongs to the subject (not the seed), so every sequence
+        # of one subject shares one body file.
+        height = float(_subject_rng(subject).uniform(1650, 1850))
         source = motion_source(motion, height=height, seed=seed)
     else:
         source = src_probe
@@ -186,8 +194,11 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     points = place_in_area(sample_motion(source, total, fps, start=start), fps)
     sync_numbers = np.arange(1 - d_max, frames + 1)
     truth = points[d_max:]
-    height = float(np.max(truth[:, 3, 2]))  # head top
+    height = (source.height if isinstance(source, ProceduralSource)
+              else stature_estimate(truth))
     shape = BodyShape.for_subject(subject, height)
+    body = subject_body(truth, shape, subject, height=height)
+    _check_body_consistency(out_dir / subject, seq, body, overwrite)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     tmp = out_dir / f".synth-tmp-{os.getpid()}-{seq}"
@@ -243,13 +254,42 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
                             endpoints_from_canonical(truth), attributes=attrs)
         import tomli_w
 
-        (sdir / "Mocap_Data" / f"{subject}_body.toml").write_text(
-            tomli_w.dumps(subject_body(truth, shape, subject)))
+        (sdir / "Mocap_Data" / f"{subject}_body.toml").write_text(tomli_w.dumps(body))
         _remove_sequence(out_dir / subject, seq)
         _move_into(tmp, out_dir)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return out_dir
+
+
+#: Rigid limb lengths that must agree (within BODY_TOLERANCE mm) between sequences of one subject.
+BODY_KEYS = ("upper_arm", "forearm", "thigh", "shin")
+BODY_TOLERANCE = 2.0
+
+
+def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -> None:
+    """Refuse to give a subject that has other sequences a body file from a different skeleton."""
+    import tomllib
+
+    path = sdir / "Mocap_Data" / f"{sdir.name}_body.toml"
+    if not path.exists():
+        return
+    others = [p for p in (sdir / "Image_Data").glob("*_(*).avi")
+              if not p.name.startswith(f"{seq}_(")] if (sdir / "Image_Data").is_dir() else []
+    if not others:
+        return
+    try:
+        old = tomllib.loads(path.read_text())["lengths_mm"]
+    except (OSError, tomllib.TOMLDecodeError, KeyError):
+        raise InputError(path, "unreadable subject body file; remove it or choose another "
+                               "--subject") from None
+    for key in BODY_KEYS:
+        a = np.asarray(old.get(key, [np.nan, np.nan]), dtype=float)
+        b = np.asarray(body["lengths_mm"][key], dtype=float)
+        if a.shape != b.shape or not np.all(np.abs(a - b) <= BODY_TOLERANCE):
+            raise InputError(path, f"subject {sdir.name} already has other sequences with "
+                                   f"another body ({key} {a.tolist()} mm, this motion "
+                                   f"{b.tolist()} mm); choose another --subject")
 
 
 def _gain(rng, noise, t, phase) -> float:
