@@ -15,8 +15,10 @@ Two background models, both used frame by frame on decoded images (``(H, W)`` gr
 :func:`suppress_shadows` removes cast shadows from a Gaussian model's foreground with Horprasert's
 brightness / chromaticity distortion: a shadow darkens the background (brightness ratio α in
 ``shadow_brightness``) without changing its colour (normalised chromaticity distortion below
-``shadow_chromaticity``). Grayscale images carry no chromaticity, so there the test is on α alone and
-off by default (``shadow_gray``). :func:`clean_mask` then opens, closes, keeps the largest
+``shadow_chromaticity``). Grayscale images carry no chromaticity; there (``shadow_gray``, off by
+default) a shadow must also keep the background's texture: the normalised cross-correlation of
+image and background over a small window must exceed ``shadow_ncc`` (Jacques et al. 2005), which
+tells a darkened textured floor from dark clothing. :func:`clean_mask` then opens, closes, keeps the largest
 component if asked, removes small 4-connected blobs (the toolkit's ``min_area``) and fills holes.
 
 :class:`SilhouetteConfig` holds every default, with per-camera thresholds; :func:`segment` applies
@@ -84,7 +86,14 @@ class SilhouetteConfig:
     shadow_chromaticity : float
         Largest normalised chromaticity distortion ``|I − αE| / |αE|`` of a shadow.
     shadow_gray : bool
-        Also suppress "shadows" on grayscale cameras on α alone (removes dark clothing too).
+        Also suppress shadows on grayscale cameras: α in range and the background's texture kept
+        (normalised cross-correlation above ``shadow_ncc``). Off by default: where the floor has
+        little texture it also removes dark clothing.
+    shadow_ncc : float
+        Smallest normalised cross-correlation of image and background over the window for a gray
+        shadow.
+    shadow_window : int
+        Half-size (pixels) of the cross-correlation window (``2 r + 1`` square).
     open_radius, close_radius : int
         Radii (pixels) of the elliptic opening (speckle removal) and closing (gap filling); 0 = off.
     min_area : int
@@ -107,6 +116,8 @@ class SilhouetteConfig:
     shadow_brightness: tuple = (0.4, 0.95)
     shadow_chromaticity: float = 0.08
     shadow_gray: bool = False
+    shadow_ncc: float = 0.5
+    shadow_window: int = 2
     open_radius: int = 1
     close_radius: int = 2
     min_area: int = 50
@@ -134,7 +145,9 @@ class SilhouetteConfig:
         if not 0 <= lo < hi <= 1.5:
             raise InputError("silhouette.shadow_brightness", f"need 0 <= low < high, got {lo}, {hi}")
         object.__setattr__(self, "shadow_brightness", (lo, hi))
-        for name in ("open_radius", "close_radius", "min_area", "mog2_history"):
+        if not -1.0 <= float(self.shadow_ncc) <= 1.0:
+            raise InputError("silhouette.shadow_ncc", f"must be in [-1, 1], got {self.shadow_ncc!r}")
+        for name in ("open_radius", "close_radius", "min_area", "mog2_history", "shadow_window"):
             value = getattr(self, name)
             if int(value) != value or value < 0:
                 raise InputError(f"silhouette.{name}", f"must be a non-negative integer, got {value!r}")
@@ -372,7 +385,8 @@ class GaussianBackground:
 
     def foreground(self, image, *, risk: float = 1.0, shadows: bool = False,
                    shadow_brightness=(0.4, 0.95), shadow_chromaticity: float = 0.08,
-                   shadow_gray: bool = False) -> np.ndarray:
+                   shadow_gray: bool = False, shadow_ncc: float = 0.5,
+                   shadow_window: int = 2) -> np.ndarray:
         """Raw foreground mask (no clean-up) of one image.
 
         Parameters
@@ -381,8 +395,8 @@ class GaussianBackground:
             Image on the 0–255 scale.
         risk : float
             Foreground iff likelihood < 1 / (256^C · risk).
-        shadows, shadow_brightness, shadow_chromaticity, shadow_gray
-            Shadow suppression (:func:`suppress_shadows`).
+        shadows, shadow_brightness, shadow_chromaticity, shadow_gray, shadow_ncc, shadow_window
+            Shadow suppression (:func:`suppress_shadows`; see :class:`SilhouetteConfig`).
 
         Returns
         -------
@@ -396,8 +410,35 @@ class GaussianBackground:
             x = _as_image(image, self.channels)[rows, cols]
             mean = self.means[best[rows, cols], rows, cols]
             shadow = _shadow_pixels(x, mean, shadow_brightness, shadow_chromaticity)
+            if self.channels == 1 and shadow.any():
+                ncc, texture = _local_ncc(_as_image(image, 1)[:, :, 0],
+                                          self.means[0][:, :, 0] if self.n_components == 1
+                                          else np.take_along_axis(
+                                              self.means[:, :, :, 0], best[None], axis=0)[0],
+                                          int(shadow_window))
+                # texture kept (and present: a flat floor has no texture to keep)
+                shadow &= (ncc[rows, cols] > shadow_ncc) & (texture[rows, cols] > _MIN_TEXTURE)
             mask[rows[shadow], cols[shadow]] = False
         return mask
+
+
+#: Smallest local background variance (grey levels²) for the texture test of gray shadows.
+_MIN_TEXTURE = 4.0
+
+
+def _local_ncc(image: np.ndarray, background: np.ndarray, radius: int):
+    """Normalised cross-correlation of two (H, W) images over (2r+1)² windows, and the
+    background's local variance (both (H, W) float32)."""
+    k = (2 * radius + 1, 2 * radius + 1)
+    img = image.astype(np.float32)
+    bg = background.astype(np.float32)
+    mi = cv2.boxFilter(img, -1, k)
+    mb = cv2.boxFilter(bg, -1, k)
+    cov = cv2.boxFilter(img * bg, -1, k) - mi * mb
+    vi = cv2.boxFilter(img * img, -1, k) - mi * mi
+    vb = cv2.boxFilter(bg * bg, -1, k) - mb * mb
+    ncc = cov / np.sqrt(np.maximum(vi * vb, 1e-6))
+    return ncc, vb
 
 
 def _shadow_pixels(x, bg, brightness, chromaticity) -> np.ndarray:
@@ -586,7 +627,8 @@ def segment(image, background, config: SilhouetteConfig | None = None, *,
         raw = background.foreground(
             image, risk=config.risk_for(camera), shadows=config.shadows,
             shadow_brightness=config.shadow_brightness,
-            shadow_chromaticity=config.shadow_chromaticity, shadow_gray=config.shadow_gray)
+            shadow_chromaticity=config.shadow_chromaticity, shadow_gray=config.shadow_gray,
+            shadow_ncc=config.shadow_ncc, shadow_window=config.shadow_window)
     else:
         raw = background.foreground(image)
     return clean_mask(raw, open_radius=config.open_radius, close_radius=config.close_radius,
