@@ -81,27 +81,19 @@ def _part_bbox(base, axis, u1, u2, shp, ox, oy, oz, vs, bb):
 
 @njit(cache=True, inline="always")
 def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz, vs,
-                     kmin, kmax):
+                     kmin, kmax, qa, qb, qc, disc, sq):
     """Exact run ``(klo, khi)`` of one cone in one column; ``klo > khi`` when empty.
 
-    The closed form locates each end of the run; when it is well conditioned (the end comes from
-    a slab plane or a root crossed at a clear slope) it is good to far better than half a voxel,
-    and the voxel nearest to each end is tested with :func:`_inside`, which decides the end
-    exactly: voxels one layer further in or out are at least ~half a voxel from the boundary.
-    Otherwise (grazing lines, nearly constant or degenerate cases) both ends are walked with
-    :func:`_inside`, starting from the closed-form run widened by ``_EPS_Q``.
+    The closed form locates each end of the run. When it is well conditioned (the end comes from
+    a slab plane, or from a root crossed at a clear slope) it is good to far better than
+    ``_DELTA`` voxel, so the voxel nearest to each end is inside exactly when the end lies beyond
+    its centre; only centres within ``_DELTA`` voxel of an end are tested with :func:`_inside`.
+    Otherwise (grazing lines, horizontal axes with the column near an end plane, nearly constant
+    cases) the column is scanned with :func:`_inside` from both ends.
     """
     # Closed form: the cone inequality is q(dz) = qa dz² + 2 qb dz + qc ≤ 0 on the slab
-    # 0 ≤ t ≤ L; dz is measured from the base centre's z.
-    a0 = ap * inv_h
-    a1 = u1z * inv_h
-    b0 = bp * inv_w
-    b1 = u2z * inv_w
-    s0 = 1.0 + k_r * tp
-    s1 = k_r * nz
-    qa = a1 * a1 + b1 * b1 - s1 * s1
-    qb = a0 * a1 + b0 * b1 - s0 * s1
-    qc = a0 * a0 + b0 * b0 - s0 * s0 - _EPS_Q
+    # 0 ≤ t ≤ L; dz is measured from the base centre's z. qb, qc (widened by _EPS_Q), the
+    # discriminant and its square root (of max(disc, 0)) come from _row_terms.
     lo = (kmin + 0.5) * vs + oz - bz - vs
     hi = (kmax + 0.5) * vs + oz - bz + vs
     lo_ok = False  # does the end come from a well-conditioned constraint?
@@ -125,13 +117,12 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
     if lo > hi:
         return 1, 0
     slope_min = _SLOPE_MIN / vs
-    disc = qb * qb - qa * qc
     inv_qa = 1.0 / qa if qa != 0.0 else 0.0  # loop-invariant (qa depends on the part only)
     if qa > 0.0:
         if disc < 0.0:
             return 1, 0
-        root_ok = math.sqrt(disc) > slope_min
-        qq = -(qb + math.copysign(math.sqrt(disc), qb))
+        root_ok = sq > slope_min
+        qq = -(qb + math.copysign(sq, qb))
         if qq == 0.0:
             r1 = r2 = -qb * inv_qa
         else:
@@ -144,8 +135,8 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
         hi = min(hi, r2)
     elif qa < 0.0:
         if disc >= 0.0:
-            root_ok = math.sqrt(disc) > slope_min
-            qq = -(qb + math.copysign(math.sqrt(disc), qb))
+            root_ok = sq > slope_min
+            qq = -(qb + math.copysign(sq, qb))
             if qq == 0.0:
                 rs = rb = -qb * inv_qa
             else:
@@ -254,8 +245,9 @@ def _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb):
 
 
 @njit(cache=True)
-def _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs):
-    """Runs of every part of particle ``p`` in every column of its box, into ``runs (·, 2)``."""
+def _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms):
+    """Runs of every part of particle ``p`` in every column of its box, into ``runs (·, 2)``;
+    ``terms (7, ·)`` is row scratch (returned, reallocated if too short)."""
     for q in range(shape.shape[0]):
         inv_h, inv_w, length, k_r = shape[q, 0], shape[q, 1], shape[q, 2], shape[q, 3]
         bx, by, bz = base[p, q, 0], base[p, q, 1], base[p, q, 2]
@@ -265,18 +257,50 @@ def _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs):
         i0, i1, j0, j1, k0, k1, off = bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3], bb[q, 4], \
             bb[q, 5], bb[q, 6]
         nj = j1 - j0 + 1
+        a1 = az * inv_h
+        b1 = cz * inv_w
+        s1 = k_r * nz_
+        qa = a1 * a1 + b1 * b1 - s1 * s1
+        if terms.shape[1] < nj:
+            terms = np.empty((7, 2 * nj))
         for i in range(i0, i1 + 1):
             dx = ox + (i + 0.5) * vs - bx
-            for j in range(j0, j1 + 1):
-                dy = oy + (j + 0.5) * vs - by
-                tp = dx * nx_ + dy * ny_
-                ap = dx * ax + dy * ay
-                bp = dx * cx + dy * cy
-                klo, khi = _column_interval(tp, ap, bp, nz_, az, cz, inv_h, inv_w, length, k_r,
-                                            bz, oz, vs, k0, k1)
-                idx = off + (i - i0) * nj + (j - j0)
-                runs[idx, 0] = klo
-                runs[idx, 1] = khi
+            _row_terms(dx, oy, vs, by, j0, nj, nx_, ny_, ax, ay, cx, cy, inv_h, inv_w, k_r,
+                       a1, b1, s1, qa, terms)
+            row = off + (i - i0) * nj
+            for jj in range(nj):
+                klo, khi = _column_interval(terms[0, jj], terms[1, jj], terms[2, jj], nz_, az,
+                                            cz, inv_h, inv_w, length, k_r, bz, oz, vs, k0, k1,
+                                            qa, terms[3, jj], terms[4, jj], terms[5, jj],
+                                            terms[6, jj])
+                runs[row + jj, 0] = klo
+                runs[row + jj, 1] = khi
+    return terms
+
+
+@njit(cache=True, inline="always")
+def _row_terms(dx, oy, vs, by, j0, nj, nx_, ny_, ax, ay, cx, cy, inv_h, inv_w, k_r, a1, b1, s1,
+               qa, terms):
+    """Branch-free per-column terms of one row (a loop the compiler can vectorise):
+    ``tp, ap, bp`` (the exact partial sums _inside uses), ``qb``, ``qc``, ``disc``, ``sqrt``."""
+    for jj in range(nj):
+        dy = oy + (j0 + jj + 0.5) * vs - by
+        tp = dx * nx_ + dy * ny_
+        ap = dx * ax + dy * ay
+        bp = dx * cx + dy * cy
+        a0 = ap * inv_h
+        b0 = bp * inv_w
+        s0 = 1.0 + k_r * tp
+        qb = a0 * a1 + b0 * b1 - s0 * s1
+        qc = a0 * a0 + b0 * b0 - s0 * s0 - _EPS_Q
+        disc = qb * qb - qa * qc
+        terms[0, jj] = tp
+        terms[1, jj] = ap
+        terms[2, jj] = bp
+        terms[3, jj] = qb
+        terms[4, jj] = qc
+        terms[5, jj] = disc
+        terms[6, jj] = math.sqrt(max(disc, 0.0))
 
 
 @njit(cache=True)
@@ -463,6 +487,7 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
         cover = np.empty((2048, n_parts, 3), np.int64)
         cover_n = np.empty(2048, np.int64)
         multi = np.empty(2048, np.int64)
+        terms = np.empty((7, 256))
         for p in range(c, n_particles, n_chunks):
             total = _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
             if total > runs.shape[0]:
@@ -472,7 +497,7 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
                 cover = np.empty((2 * ncol, n_parts, 3), np.int64)
                 cover_n = np.empty(2 * ncol, np.int64)
                 multi = np.empty(2 * ncol, np.int64)
-            _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs)
+            terms = _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms)
             _score(nx, ny, nz, prefix, qmax, bb, runs, counts[p])
             _double_occupancy(bb, runs, cover, cover_n, multi, tmp_lo, tmp_hi, run_lo, run_hi,
                               counts[p])
@@ -486,7 +511,7 @@ def rasterise_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, volume):
     bb = np.empty((n_parts, 7), np.int64)
     total = _boxes(0, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
     runs = np.empty((max(total, 1), 2), np.int64)
-    _runs(0, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs)
+    _runs(0, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, np.empty((7, 256)))
     for q in range(n_parts):
         nj = bb[q, 3] - bb[q, 2] + 1
         for i in range(max(bb[q, 0], 0), min(bb[q, 1], nx - 1) + 1):
