@@ -77,6 +77,9 @@ class BvhClip:
         Millimetres per file unit used by :meth:`positions`.
     source : str
         The file read (for messages).
+    pre_rotation : (J, 3, 3) float ndarray or None
+        Constant rotation applied before each joint's channel rotation (local = pre · channels);
+        None for BVH files (identity). ASF/AMC clips use it (:mod:`voxelmocap.io.asf`).
     """
 
     names: list[str]
@@ -88,6 +91,7 @@ class BvhClip:
     frame_time: float
     scale: float = 10.0
     source: str = "<bvh>"
+    pre_rotation: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
@@ -133,6 +137,8 @@ class BvhClip:
                 angles = data[:, start + np.array(rot_cols)]
                 # Upper-case axes: intrinsic rotations, i.e. R = R_first · R_second · R_third.
                 rot[:, j] = Rotation.from_euler(order, angles, degrees=True).as_matrix()
+        if self.pre_rotation is not None:
+            rot = self.pre_rotation[None] @ rot
         return rot, trans
 
     def global_transforms(self, frames=None) -> tuple[np.ndarray, np.ndarray]:
@@ -436,7 +442,12 @@ def _guess_scale(clip: BvhClip) -> float:
 
 # ---------------------------------------------------------------------- writing
 def write_bvh(path, clip: BvhClip, *, precision: int = 6) -> None:
-    """Write a clip as BVH text (atomic). End sites are written as ``End Site`` blocks."""
+    """Write a clip as BVH text (atomic). End sites are written as ``End Site`` blocks.
+
+    Clips with pre-rotations (read from ASF/AMC) cannot be expressed in BVH and raise ValueError.
+    """
+    if clip.pre_rotation is not None and not np.allclose(clip.pre_rotation, np.eye(3)):
+        raise ValueError("clip has joint pre-rotations (ASF/AMC); BVH cannot hold them")
     out = ["HIERARCHY"]
 
     def emit(j, depth):

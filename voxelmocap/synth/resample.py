@@ -66,7 +66,10 @@ class BvhSource:
         from ..io.bvh import read_bvh
 
         self.path = Path(path)
-        self.clip = read_bvh(self.path, unit=unit)
+        if self.path.suffix.lower() == ".amc":
+            self.clip = _read_amc(self.path, unit)
+        else:
+            self.clip = read_bvh(self.path, unit=unit)
         self.family = detect_family(self.clip.names, source=self.path)
         self.name = self.path.name
         self.duration = (self.clip.n_frames - 1) * self.clip.frame_time
@@ -77,12 +80,24 @@ class BvhSource:
         return bvh_canonical_points(self.clip, times, family=self.family)
 
 
+def _read_amc(path: Path, unit):
+    """An AMC motion with its ASF skeleton: ``<prefix>.asf`` beside ``<prefix>_<n>.amc`` (CMU)."""
+    from ..io.asf import read_asf_amc
+
+    candidates = [path.with_name(path.stem.split("_")[0] + ".asf"), path.with_suffix(".asf")]
+    asf = next((p for p in candidates if p.exists()), None)
+    if asf is None:
+        raise InputError(path, f"no ASF skeleton beside it (looked for "
+                               f"{', '.join(p.name for p in candidates)})")
+    return read_asf_amc(asf, path, fps=120.0, unit=unit)
+
+
 def motion_source(motion: str, *, height: float = 1750.0, seed: int = 0, unit="auto"):
     """A :class:`ProceduralSource` for a built-in name, else a :class:`BvhSource` for a file path."""
     if motion in MOTIONS:
         return ProceduralSource(motion, height=height, seed=seed)
     path = Path(motion)
-    if path.suffix.lower() == ".bvh" or path.exists():
+    if path.suffix.lower() in (".bvh", ".amc") or path.exists():
         return BvhSource(path, unit=unit)
     raise InputError("--motion", f"unknown motion {motion!r} (choose {', '.join(MOTIONS)} "
                                  "or a .bvh file)")

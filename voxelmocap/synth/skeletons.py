@@ -27,6 +27,11 @@ ankle      l/rfoot                  Foot_L/R                     Left/RightFoot
 toe        toe3-1.l/.r              Toes_L/R                     Left/RightToeBase
 ========== ======================== ============================ ==============================
 
+A fourth family, ``cmu_asf``, maps CMU ASF/AMC skeletons (:mod:`voxelmocap.io.asf`, joints named
+after the bone that starts there): pelvis = mid(lfemur, rfemur), thorax = lowerneck, head = head,
+shoulder = l/rhumerus, elbow = l/rradius, wrist = l/rwrist, hand = l/rhand, hip = l/rfemur,
+knee = l/rtibia, ankle = l/rfoot, toe = l/rtoes, head up axis = the head bone.
+
 The **head top** (HumanEva ``headDistal``) is a point along the head bone above the head joint:
 ``along(head, up, ℓ)`` with ``up`` the head's local up direction (the offset of ``__jaw`` /
 ``Head_End`` for the CMU families, the neck→head bone axis for Bandai) and ℓ chosen so that the
@@ -151,6 +156,15 @@ FAMILIES: tuple[SkeletonFamily, ...] = (
                    "hip": ("LeftUpLeg", "RightUpLeg"), "knee": ("LeftLeg", "RightLeg"),
                    "ankle": ("LeftFoot", "RightFoot"), "toe": ("LeftToeBase", "RightToeBase")})},
         head_up="Head_End",
+    ),
+    SkeletonFamily(
+        "cmu_asf",  # ASF/AMC read by voxelmocap.io.asf: a joint is named after the bone it starts
+        {"pelvis": ("lfemur", "rfemur"), "thorax": "lowerneck", "head": "head",
+         **_sided({"shoulder": ("lhumerus", "rhumerus"), "elbow": ("lradius", "rradius"),
+                   "wrist": ("lwrist", "rwrist"), "hand": ("lhand", "rhand"),
+                   "hip": ("lfemur", "rfemur"), "knee": ("ltibia", "rtibia"),
+                   "ankle": ("lfoot", "rfoot"), "toe": ("ltoes", "rtoes")})},
+        head_up="head_End",
     ),
 )
 

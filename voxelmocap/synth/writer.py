@@ -100,7 +100,8 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     out_dir : str or os.PathLike
         Data set root; created if needed. Existing files of the same sequence are replaced.
     motion : str
-        ``walk``, ``jog``, ``box``, ``gestures``, ``throwcatch`` or the path of a ``.bvh`` file.
+        ``walk``, ``jog``, ``box``, ``gestures``, ``throwcatch``, the path of a ``.bvh`` file, or
+        of a CMU ``.amc`` file (its ``.asf`` beside it, 120 fps).
     frames : int
         Number N of synchronised frames (with ground truth), numbered 1..N.
     subject : str
