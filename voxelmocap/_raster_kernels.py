@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -462,6 +463,11 @@ def _double_occupancy(bb, runs, cover, cover_n, multi, tmp_lo, tmp_hi, run_lo, r
                 if lo_s <= hi_s:
                     do += hi_s - lo_s + 1
             counts[q, 2] += do
+
+
+def default_chunks() -> int:
+    """Number of particle chunks for :func:`part_counts`: one per numba thread."""
+    return numba.get_num_threads()
 
 
 @njit(cache=True, parallel=True)

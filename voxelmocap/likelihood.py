@@ -47,7 +47,6 @@ is 6 %, 2–4 %, 1 % and below 1 %. See ``docs/body_model.md``.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from . import _raster_kernels as _k
@@ -183,7 +182,7 @@ def part_counts(measurement: Measurement, model, states, *, clip: bool = False) 
     g = measurement.grid
     counts = np.zeros((geo.n_particles, len(model.parts), _k.N_COUNTS), dtype=np.int64)
     _k.part_counts(geo.base, geo.axis, geo.u1, geo.u2, geo.shape, *g.origin, g.voxel_size,
-                   measurement.prefix, QMAX, numba.get_num_threads(), counts)
+                   measurement.prefix, QMAX, _k.default_chunks(), counts)
     return counts
 
 
