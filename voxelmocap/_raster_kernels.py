@@ -319,9 +319,21 @@ def _run_of(q, i, j, bb, runs):
 
 
 @njit(cache=True)
-def _score(nx, ny, nz, prefix, qmax, bb, runs, counts):
-    """Counts of every part of one particle into ``counts (n_parts, 6)``, except DO."""
+def _score(nx, ny, nz, prefix, qmax, bb, runs, cover, cover_n, multi, counts):
+    """Counts of every part of one particle into ``counts (n_parts, 6)``, except DO; fills
+    ``cover``/``cover_n`` (see :func:`_double_occupancy`) and returns how many columns of
+    ``multi`` have two runs or more."""
     n_parts = bb.shape[0]
+    ui0 = bb[0, 0]
+    uj0 = bb[0, 2]
+    uj1 = bb[0, 3]
+    for q in range(1, n_parts):
+        ui0 = min(ui0, bb[q, 0])
+        uj0 = min(uj0, bb[q, 2])
+        uj1 = max(uj1, bb[q, 3])
+    nuj = uj1 - uj0 + 1
+    cover_n[:_union_columns(bb)] = 0
+    n_multi = 0
     for q in range(n_parts):
         n = 0
         out = 0
@@ -332,12 +344,25 @@ def _score(nx, ny, nz, prefix, qmax, bb, runs, counts):
         nj = j1 - j0 + 1
         off = bb[q, 6]
         for i in range(i0, i1 + 1):
+            row = off + (i - i0) * nj - j0
+            crow = (i - ui0) * nuj - uj0
+            inside_i = 0 <= i < nx
             for j in range(j0, j1 + 1):
-                idx = off + (i - i0) * nj + (j - j0)
+                idx = row + j
                 klo = runs[idx, 0]
                 khi = runs[idx, 1]
                 if klo > khi:
                     continue
+                # register the run for the double-occupancy pass
+                c = crow + j
+                m = cover_n[c]
+                cover[c, m, 0] = q
+                cover[c, m, 1] = klo
+                cover[c, m, 2] = khi
+                cover_n[c] = m + 1
+                if m == 1:
+                    multi[n_multi] = c
+                    n_multi += 1
                 length = khi - klo + 1
                 n += length
                 # interior: k±1 in the run and the four neighbour columns contain k
@@ -356,7 +381,7 @@ def _score(nx, ny, nz, prefix, qmax, bb, runs, counts):
                 sv_all = 0
                 sv_int = 0
                 scene_in = 0
-                if 0 <= i < nx and 0 <= j < ny:
+                if inside_i and 0 <= j < ny:
                     a = max(klo, 0)
                     b = min(khi, nz - 1)
                     if a <= b:
@@ -376,50 +401,18 @@ def _score(nx, ny, nz, prefix, qmax, bb, runs, counts):
         counts[q, 3] = occ
         counts[q, 4] = nsurf
         counts[q, 5] = surf
+    return n_multi
 
 
 @njit(cache=True)
-def _double_occupancy(bb, runs, cover, cover_n, multi, tmp_lo, tmp_hi, run_lo, run_hi, counts):
+def _double_occupancy(cover, cover_n, multi, n_multi, tmp_lo, tmp_hi, run_lo, run_hi, counts):
     """DO counts (``counts[:, 2]``).
 
-    Per column of the union box: the parts with a run there (``cover (·, n_parts, 3)`` = part,
-    klo, khi; ``cover_n`` how many); where two runs or more meet, the layers covered twice or
-    more (S2), and for each part the length of its run inside S2.
+    ``cover (·, n_parts, 3)`` holds, per column of the union box of the parts' boxes, the parts
+    with a run there (part, klo, khi; ``cover_n`` how many); ``multi[:n_multi]`` lists the
+    columns with two runs or more. In each of them: the layers covered twice or more (S2), and
+    for each part the length of its run inside S2.
     """
-    n_parts = bb.shape[0]
-    ui0 = bb[0, 0]
-    ui1 = bb[0, 1]
-    uj0 = bb[0, 2]
-    uj1 = bb[0, 3]
-    for q in range(1, n_parts):
-        ui0 = min(ui0, bb[q, 0])
-        ui1 = max(ui1, bb[q, 1])
-        uj0 = min(uj0, bb[q, 2])
-        uj1 = max(uj1, bb[q, 3])
-    nuj = uj1 - uj0 + 1
-    ncol = (ui1 - ui0 + 1) * nuj
-    cover_n[:ncol] = 0
-    n_multi = 0
-    for q in range(n_parts):
-        counts[q, 2] = 0
-        i0, i1, j0, j1, off = bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3], bb[q, 6]
-        nj = j1 - j0 + 1
-        for i in range(i0, i1 + 1):
-            row = off + (i - i0) * nj - j0
-            crow = (i - ui0) * nuj - uj0
-            for j in range(j0, j1 + 1):
-                lo = runs[row + j, 0]
-                hi = runs[row + j, 1]
-                if lo <= hi:
-                    c = crow + j
-                    n = cover_n[c]
-                    cover[c, n, 0] = q
-                    cover[c, n, 1] = lo
-                    cover[c, n, 2] = hi
-                    cover_n[c] = n + 1
-                    if n == 1:  # the column now has two runs: visit it below
-                        multi[n_multi] = c
-                        n_multi += 1
     for mm in range(n_multi):
         c = multi[mm]
         m = cover_n[c]
@@ -504,8 +497,9 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
                 cover_n = np.empty(2 * ncol, np.int64)
                 multi = np.empty(2 * ncol, np.int64)
             terms = _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms)
-            _score(nx, ny, nz, prefix, qmax, bb, runs, counts[p])
-            _double_occupancy(bb, runs, cover, cover_n, multi, tmp_lo, tmp_hi, run_lo, run_hi,
+            n_multi = _score(nx, ny, nz, prefix, qmax, bb, runs, cover, cover_n, multi,
+                             counts[p])
+            _double_occupancy(cover, cover_n, multi, n_multi, tmp_lo, tmp_hi, run_lo, run_hi,
                               counts[p])
 
 
