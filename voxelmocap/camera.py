@@ -332,14 +332,10 @@ class Camera:
             Missing or unreadable file, wrong number of values, text, NaN/inf, a non-orthonormal
             R, or a camera facing away from ``check_facing``.
         """
+        from .io._files import read_text_file
+
         path = Path(path)
-        try:
-            text = path.read_text(encoding="ascii", errors="strict")
-        except FileNotFoundError:
-            raise InputError(path, "calibration file not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(path, f"cannot read calibration file ({exc.__class__.__name__})") from None
-        tokens = text.split()
+        tokens = read_text_file(path, "calibration file", encoding="ascii").split()
         if len(tokens) != 22:
             raise InputError(path, f"expected 22 numbers in a .cal file, found {len(tokens)} values")
         try:

@@ -33,6 +33,7 @@ from ..camera import Camera, Rig, sort_camera_names
 from ..errors import InputError
 from ..joints import endpoints_to_landmarks
 from ._atomic import atomic_write_text
+from ._files import read_text_file
 from .body_pose_xml import BodyPoseSequence, read_body_pose_xml, write_body_pose_xml
 
 __all__ = [
@@ -63,13 +64,7 @@ def read_ofs(path) -> tuple[float, float, float]:
         Missing file, not exactly 3 numbers, text, NaN/inf, or a non-positive ``mc_sc``.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="ascii")
-    except FileNotFoundError:
-        raise InputError(path, "sync file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read sync file ({exc.__class__.__name__})") from None
-    tokens = text.split()
+    tokens = read_text_file(path, "sync file", encoding="ascii").split()
     if len(tokens) != 3:
         raise InputError(path, f"expected 3 numbers (im_st, mc_st, mc_sc), found {len(tokens)} "
                                "values")
