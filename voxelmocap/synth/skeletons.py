@@ -28,7 +28,7 @@ toe        toe3-1.l/.r              Toes_L/R                     Left/RightToeBa
 ========== ======================== ============================ ==============================
 
 A fourth family, ``cmu_asf``, maps CMU ASF/AMC skeletons (:mod:`voxelmocap.io.asf`, joints named
-after the bone that starts there): pelvis = mid(lfemur, rfemur), thorax = lowerneck, head = head,
+after the bone that starts there): pelvis = mid(lfemur, rfemur), thorax = upperneck, head = head,
 shoulder = l/rhumerus, elbow = l/rradius, wrist = l/rwrist, hand = l/rhand, hip = l/rfemur,
 knee = l/rtibia, ankle = l/rfoot, toe = l/rtoes, head up axis = the head bone.
 
@@ -159,7 +159,7 @@ FAMILIES: tuple[SkeletonFamily, ...] = (
     ),
     SkeletonFamily(
         "cmu_asf",  # ASF/AMC read by voxelmocap.io.asf: a joint is named after the bone it starts
-        {"pelvis": ("lfemur", "rfemur"), "thorax": "lowerneck", "head": "head",
+        {"pelvis": ("lfemur", "rfemur"), "thorax": "upperneck", "head": "head",
          **_sided({"shoulder": ("lhumerus", "rhumerus"), "elbow": ("lradius", "rradius"),
                    "wrist": ("lwrist", "rwrist"), "hand": ("lhand", "rhand"),
                    "hip": ("lfemur", "rfemur"), "knee": ("ltibia", "rtibia"),
