@@ -218,3 +218,26 @@ def test_bad_input():
         part_scores(meas, model, np.zeros((2, 26)))
     with pytest.raises(InputError, match="one state"):
         rasterise(model, np.stack([x, x]), GRID)
+
+
+def test_fast_equals_reference_on_exact_ties():
+    # cylinder upper arms (R = 1) standing vertical, columns exactly tangent to them (x = 135 and
+    # 235 mm, y = 0) and voxel centres exactly on the joints' end planes: the degenerate cases
+    from voxelmocap.body import BodyDimensions
+
+    dims = BodyDimensions.average().replace(w_forearm=(50.0, 50.0))
+    model = BodyModel(dims)
+    assert model.parts[2].R == 1.0
+    grid = VoxelGrid((-1000.0, -1005.0, -5.0), 10.0, (200, 201, 200))
+    meas = Measurement(np.zeros(grid.shape, bool), grid)
+    x = standing(model)
+    x[2] = 1000.0
+    states = [x.copy()]
+    for name, value in (("root_yaw", 90 * DEG), ("l_shoulder_abd", 90 * DEG),
+                        ("r_elbow", 90 * DEG), ("l_hip_flex", 90 * DEG)):
+        y = x.copy()
+        y[STATE_INDEX[name]] = value
+        states.append(y)
+    states = np.array(states)
+    np.testing.assert_array_equal(part_counts(meas, model, states),
+                                  part_counts_reference(meas, model, states))
