@@ -27,6 +27,15 @@ LIGHT = np.array([0.35, -0.25, 1.0]) / np.linalg.norm([0.35, -0.25, 1.0])
 AMBIENT = 0.42
 
 
+def _max3(a):
+    # column-wise: much faster than a.max(axis=1) on (N, 3) arrays
+    return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
+
+
+def _min3(a):
+    return np.minimum(np.minimum(a[:, 0], a[:, 1]), a[:, 2])
+
+
 def _hash(ix, iy, seed):
     """Deterministic pseudo-random values in [0, 1) for integer lattice points (any shape)."""
     h = (np.asarray(ix, dtype=np.int64) * 73856093) ^ (np.asarray(iy, dtype=np.int64) * 19349663) \
@@ -168,8 +177,8 @@ class Scene:
                 t2 = (b.hi - o) * inv
             tmin3 = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2))
             tmax3 = np.where(np.isnan(t1), np.inf, np.maximum(t1, t2))
-            tn = tmin3.max(axis=1)
-            tf = tmax3.min(axis=1)
+            tn = _max3(tmin3)
+            tf = _min3(tmax3)
             hit = (tn <= tf) & (tn > 0) & (tn < t)
             if np.any(hit):
                 ax = np.argmax(tmin3[hit], axis=1)
@@ -191,8 +200,8 @@ class Scene:
                 with np.errstate(divide="ignore", invalid="ignore"):
                     t1 = (b.lo - fp) / LIGHT
                     t2 = (b.hi - fp) / LIGHT
-                tn = np.minimum(t1, t2).max(axis=1)
-                tf = np.maximum(t1, t2).min(axis=1)
+                tn = _max3(np.minimum(t1, t2))
+                tf = _min3(np.maximum(t1, t2))
                 shadowed |= (tn <= tf) & (tf > 0)
             lf = light[is_floor]
             lf[shadowed] = AMBIENT

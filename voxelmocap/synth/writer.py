@@ -201,6 +201,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     body = subject_body(truth, shape, subject, height=height)
     _check_body_consistency(out_dir / subject, seq, body, overwrite)
 
+    created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
     tmp = out_dir / f".synth-tmp-{os.getpid()}-{seq}"
     shutil.rmtree(tmp, ignore_errors=True)
@@ -260,6 +261,8 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
         _move_into(tmp, out_dir)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+        if created and not any(out_dir.iterdir()):
+            out_dir.rmdir()  # a failed run leaves no trace, not even the folder it made
     return out_dir
 
 
