@@ -218,6 +218,8 @@ def carve_bricks(tables, masks, integrals, int_offsets, int_widths, rects, full,
         possible = 0
         empty = False
         for c in range(n_cam):
+            if min_views > 0 and (possible >= min_views or possible + n_cam - c < min_views):
+                break  # already enough cameras, or no longer reachable
             u0 = rects[c, brick, 0]
             if u0 < 0:
                 continue
