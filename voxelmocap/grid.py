@@ -105,7 +105,9 @@ class VoxelGrid:
 
         The floor (Z = 0) is sampled on a square lattice of pitch ``step`` around the cameras; a
         lattice point belongs to the capture area when both it and the point ``height`` above it
-        project inside the images of at least ``min_views`` cameras (in front of them). The grid is
+        are seen by at least ``min_views`` cameras (the carver's rule,
+        :func:`voxelmocap.carving.visible`: in front, within the field of view, rounding into the
+        image). The grid is
         the axis-aligned box over the capture area's bounding rectangle (grown by ``margin``), from
         the floor to ``height``, with its corner at the floor (x, y snapped down to multiples of
         ``voxel_size``).
@@ -152,14 +154,13 @@ class VoxelGrid:
         gx, gy = np.meshgrid(xs, ys, indexing="ij")
         floor = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
         top = floor + np.array([0.0, 0.0, float(height)])
+        # the carver's visibility rule: in front, inside the trusted field of view (the lens
+        # polynomial folds far off-axis points back into the image), rounding into the image
+        from .carving import visible
+
         views = np.zeros(len(floor), dtype=np.int32)
         for cam in cameras:
-            seen = np.ones(len(floor), dtype=bool)
-            for pts in (floor, top):
-                pix, depth = cam.project(pts, return_depth=True)
-                with np.errstate(invalid="ignore"):
-                    seen &= (depth > 0) & cam.in_image(np.nan_to_num(pix, nan=-1.0))
-            views += seen
+            views += visible(cam, floor)[2] & visible(cam, top)[2]
         inside = floor[views >= n_req]
         if len(inside) == 0:
             raise InputError("rig", f"no floor area is seen by {n_req} of the {len(cameras)} "
