@@ -37,7 +37,7 @@ def test_bones_are_rigid_and_the_body_stays_on_the_floor(kind):
     assert np.all(np.abs(placed[:, C["pelvis"], :2]) <= np.array(AREA) + 1e-6)
 
 
-@pytest.mark.parametrize("kind, speed, knee_swing", [("walk", (1.0, 1.3), (35, 70)),
+@pytest.mark.parametrize("kind, speed, knee_swing", [("walk", (0.85, 1.2), (45, 75)),
                                                       ("jog", (2.0, 2.6), (60, 110))])
 def test_locomotion_speed_planted_feet_and_knee_curve(kind, speed, knee_swing):
     P = procedural_points(kind, T, height=1750, seed=1)
@@ -74,3 +74,16 @@ def test_same_seed_same_motion_and_unknown_name():
     assert not np.allclose(a, procedural_points("box", T[:50], seed=5))
     with pytest.raises(InputError, match="unknown motion"):
         procedural_points("dance", T[:5])
+
+
+def test_walking_knee_curve_has_the_double_hump_and_the_pelvis_bobs_smoothly():
+    P = procedural_points("walk", T, height=1750, seed=2)
+    knee = _angle(P, "l_hip", "l_knee", "l_ankle")
+    toe_z = P[:, C["l_toe"], 2]
+    stance = toe_z < 0.012 * 1750 + 0.5
+    # stance: flexed at loading, extended at mid-stance; swing: the large flexion peak
+    assert knee[stance].min() < 20 and 25 < knee[stance].max() < 55
+    assert knee[~stance].max() > knee[stance].max()
+    z = P[:, C["pelvis"], 2]
+    assert 30 < np.ptp(z) < 90  # vertical excursion, mm
+    assert np.abs(np.diff(z)).max() * FPS < 600  # no jumps: < 0.6 m/s vertical

@@ -8,13 +8,14 @@ How the motions are built, so that they look like the real thing rather than a s
 * **Walk / jog** follow an elliptical path around the capture area (as HumanEva's subjects do).
   Footprints are laid along the path (stride length = speed / stride frequency, step width
   ~ 0.1 × height), the stance foot stays planted on its footprint and rolls over the toe before
-  toe-off (heel rise to 35°/45°), the swing foot follows a minimum-jerk curve to the next
+  toe-off (heel rise to 50°/45°), the swing foot follows a minimum-jerk curve to the next
   footprint with toe clearance. The pelvis moves along the path with the classic vertical bob
-  (lowest at double support), lateral sway towards the stance foot and ±5° pelvic rotation; the
+  (a sinusoid, lowest at double support, as high as the nearly straight stance leg allows at
+  mid-stance), lateral sway towards the stance foot and ±5° pelvic rotation; the
   thorax counter-rotates; arms swing opposite to the legs (±12° walk, ±30° jog, elbows 20°/85°).
   Knees come from two-link inverse kinematics, so hip and knee angle curves emerge from the foot
   and pelvis trajectories (double-hump knee curve for walking; flight phase for jogging, duty
-  factor 0.62 / 0.38 at 0.9 / 1.35 Hz stride frequency and 1.15 / 2.3 m/s).
+  factor 0.62 / 0.38 at 0.88 / 1.35 Hz stride frequency and 1.0 / 2.3 m/s).
 * **Box, gestures, throwcatch** stand in a fixed stance; wrist targets move through key poses
   (guard, jab, cross, hook, uppercut; wave, point, beckon; wind-up, throw, follow-through,
   two-handed catch) interpolated with monotone cubics, the elbows placed by two-link IK with a
@@ -157,7 +158,7 @@ def _arm_fk(P, shoulder, Rt, flex, abd, elbow, sgn):
 # ---------------------------------------------------------------------- locomotion
 _GAIT = {
     #        speed m/s, stride Hz, duty, toe lift, heel rise°, bob, sway, arm swing°, elbow°, lean°
-    "walk": (1.15, 0.90, 0.62, 0.100, 35.0, 0.020, 0.022, 12.0, 20.0, 3.0),
+    "walk": (1.00, 0.88, 0.62, 0.100, 50.0, 0.020, 0.022, 12.0, 20.0, 3.0),
     "jog": (2.30, 1.35, 0.38, 0.300, 45.0, 0.035, 0.012, 30.0, 85.0, 8.0),
 }
 
@@ -176,6 +177,37 @@ def _ellipse_path(s, a, b, theta0):
     return pos, tan
 
 
+def _walk_pelvis_height(t, feet, trunk, P: Proportions, freq, duty):
+    """Pelvis height (T,) of walking: as high as the loaded legs allow, smoothed.
+
+    The loaded legs (stance, or landing within 3 % of the cycle) must reach their ankles with
+    the knee nearly straight (0.996 of the leg length); that bound peaks at mid-stance and dips
+    at double support. The pelvis follows the classic two-per-stride sinusoid between the bound's
+    peak (95th percentile) and dip (2nd percentile): a continuous bob of ~4–5 cm, lowest in
+    double support, without the sudden drop at heel strike that following the bound would give.
+    The bound is evaluated on a 240 Hz grid around the requested times.
+    """
+    rate = 240.0
+    tg = np.arange(t.min() - 0.5, t.max() + 0.5 + 1 / rate, 1 / rate)
+    ankles, _ = feet(tg)
+    pos, _, left, lateral, pel_yaw = trunk(tg)
+    leg = P.thigh + P.shin
+    z = np.full(len(tg), P.ankle_h + 0.992 * leg)
+    for k, sgn in enumerate((1.0, -1.0)):
+        hip_xy = (pos + left * lateral[:, None]
+                  + sgn * P.hip_offset * np.stack([-np.sin(pel_yaw), np.cos(pel_yaw)], -1))
+        horiz = np.linalg.norm(ankles[:, k, :2] - hip_xy, axis=1)
+        reach = ankles[:, k, 2] + np.sqrt(np.maximum((0.996 * leg) ** 2 - horiz ** 2, 0.0))
+        u = np.mod(tg * freq + 0.5 * k, 1.0)
+        loaded = (u < duty) | (u > 0.97)
+        z = np.where(loaded, np.minimum(z, reach), z)
+    # A sinusoid through the bound's peak (mid-stance) and its dips (double support, centred
+    # between heel strike and the other foot's toe-off); see the docstring.
+    phase0 = 0.5 * (duty - 0.5)
+    z_top, z_low = np.percentile(z, 95), np.percentile(z, 2)
+    return z_top - (z_top - z_low) * 0.5 * (1 + np.cos(4 * np.pi * (t * freq - phase0)))
+
+
 def _locomotion(kind, t, P: Proportions, rng):
     speed, freq, duty, lift, heel, bob, sway, arm_amp, elbow0, lean = _GAIT[kind]
     H = P.height
@@ -192,64 +224,68 @@ def _locomotion(kind, t, P: Proportions, rng):
         left = np.stack([-tan[:, 1], tan[:, 0]], -1)
         return pos, tan, left
 
-    phase_l = t * freq
-    ankles = np.empty((T, 2, 3))
-    foot_dirs = np.empty((T, 2, 3))
     toe_drop = np.arctan2(P.ankle_h - 0.012 * H, P.foot)  # foot's rest pitch (toe below ankle)
     foot_len = P.foot
-    for k, off in enumerate((0.0, 0.5)):
-        ph = phase_l + off
-        cyc = np.floor(ph)
-        u = ph - cyc
-        # footprint of cycle c: where the body is at mid-stance of that cycle
-        s_fp = speed * ((cyc + 0.5 * duty - off) / freq)
-        s_next = speed * ((cyc + 1 + 0.5 * duty - off) / freq)
-        sgn = 1.0 if k == 0 else -1.0
-        pos0, tan0, left0 = path(s_fp)
-        pos1, tan1, left1 = path(s_next)
-        toe0 = np.concatenate([pos0 + sgn * left0 * step_w / 2 + tan0 * 0.6 * foot_len,
-                               np.full((T, 1), 0.012 * H)], 1)
-        toe1 = np.concatenate([pos1 + sgn * left1 * step_w / 2 + tan1 * 0.6 * foot_len,
-                               np.full((T, 1), 0.012 * H)], 1)
-        stance = u < duty
-        us = u / duty
-        usw = (u - duty) / (1 - duty)
-        # Heel rise over the last 40 % of stance, back to flat (with toes up) during swing.
-        beta = np.where(stance, np.radians(heel) * _smooth((us - 0.6) / 0.4),
-                        np.radians(heel) * (1 - _smooth(usw / 0.6))
-                        - np.radians(10) * np.sin(np.pi * np.clip(usw, 0, 1)) ** 2)
-        m = _smooth(usw)[:, None]
-        toe = np.where(stance[:, None], toe0, toe0 + (toe1 - toe0) * m)
-        tan = np.where(stance[:, None], tan0, _unit(tan0 + (tan1 - tan0) * m))
-        fwd3 = np.concatenate([tan, np.zeros((T, 1))], 1)
-        ang = toe_drop + beta
-        fd = np.cos(ang)[:, None] * fwd3 - np.sin(ang)[:, None] * np.array([0, 0, 1.0])
-        # Swing: the ankle rises early (the knee flexes to lift the foot behind the body, heel
-        # up to ~0.25 m in walking, a heel kick in jogging), then lowers to the next footprint.
-        bump = np.sin(np.pi * np.sqrt(np.clip(usw, 0, 1))) ** 2
-        ankle = toe - fd * foot_len
-        ankle[:, 2] += np.where(stance, 0.0, lift * 1000 * scale * bump)
-        foot_dirs[:, k] = fd
-        ankles[:, k] = ankle
-    s = speed * t
-    pos, tan, left = path(s)
+
+    def feet(tq):
+        """Ankles (T, 2, 3) and unit ankle→toe directions (T, 2, 3) at times ``tq``."""
+        n = len(tq)
+        ankles = np.empty((n, 2, 3))
+        foot_dirs = np.empty((n, 2, 3))
+        for k, off in enumerate((0.0, 0.5)):
+            ph = tq * freq + off
+            cyc = np.floor(ph)
+            u = ph - cyc
+            # footprint of cycle c: where the body is at mid-stance of that cycle
+            s_fp = speed * ((cyc + 0.5 * duty - off) / freq)
+            s_next = speed * ((cyc + 1 + 0.5 * duty - off) / freq)
+            sgn = 1.0 if k == 0 else -1.0
+            pos0, tan0, left0 = path(s_fp)
+            pos1, tan1, left1 = path(s_next)
+            toe0 = np.concatenate([pos0 + sgn * left0 * step_w / 2 + tan0 * 0.6 * foot_len,
+                                   np.full((n, 1), 0.012 * H)], 1)
+            toe1 = np.concatenate([pos1 + sgn * left1 * step_w / 2 + tan1 * 0.6 * foot_len,
+                                   np.full((n, 1), 0.012 * H)], 1)
+            stance = u < duty
+            us = u / duty
+            usw = (u - duty) / (1 - duty)
+            # Heel rise over the last 45 % of stance, accelerating (the heel comes off slowly,
+            # then the foot rolls quickly onto the toes); flat again (toes up) during swing.
+            beta = np.where(stance, np.radians(heel) * np.clip((us - 0.55) / 0.45, 0, 1) ** 2,
+                            np.radians(heel) * (1 - _smooth(usw / 0.6))
+                            - np.radians(10) * np.sin(np.pi * np.clip(usw, 0, 1)) ** 2)
+            m = _smooth(usw)[:, None]
+            toe = np.where(stance[:, None], toe0, toe0 + (toe1 - toe0) * m)
+            tan = np.where(stance[:, None], tan0, _unit(tan0 + (tan1 - tan0) * m))
+            fwd3 = np.concatenate([tan, np.zeros((n, 1))], 1)
+            ang = toe_drop + beta
+            fd = np.cos(ang)[:, None] * fwd3 - np.sin(ang)[:, None] * np.array([0, 0, 1.0])
+            # Swing: the ankle rises early (the knee flexes to lift the foot behind the body,
+            # heel up to ~0.2 m in walking, a heel kick in jogging), then lowers to the next
+            # footprint.
+            bump = np.sin(np.pi * np.sqrt(np.clip(usw, 0, 1))) ** 2
+            ankle = toe - fd * foot_len
+            ankle[:, 2] += np.where(stance, 0.0, lift * 1000 * scale * bump)
+            foot_dirs[:, k] = fd
+            ankles[:, k] = ankle
+        return ankles, foot_dirs
+
+    def trunk(tq):
+        """Path point, tangent, left, lateral sway and pelvis yaw at times ``tq``."""
+        pos, tan, left = path(speed * tq)
+        ph2 = 2 * np.pi * tq * freq
+        lateral = sway * 1000 * scale * np.sin(ph2 - np.pi * duty)
+        pel_yaw = np.arctan2(tan[:, 1], tan[:, 0]) + np.radians(5) * np.cos(ph2)
+        return pos, tan, left, lateral, pel_yaw
+
+    ankles, foot_dirs = feet(t)
+    pos, tan, left, lateral, pel_yaw = trunk(t)
+    phase_l = t * freq
     ph2 = 2 * np.pi * phase_l
-    lateral = sway * 1000 * scale * np.sin(ph2 - np.pi * duty)
     heading = np.arctan2(tan[:, 1], tan[:, 0])
-    pel_yaw = heading + np.radians(5) * np.cos(ph2)
     leg = P.thigh + P.shin
     if kind == "walk":
-        # Pelvis height: as high as the nearly straight stance legs allow (knee ≈ 8° at
-        # mid-stance), which yields the bob, lowest at double support, without sliding feet.
-        z = np.full(T, P.ankle_h + 0.992 * leg)
-        for k, sgn in enumerate((1.0, -1.0)):
-            hip_xy = (pos + left * lateral[:, None]
-                      + sgn * P.hip_offset * np.stack([-np.sin(pel_yaw), np.cos(pel_yaw)], -1))
-            horiz = np.linalg.norm(ankles[:, k, :2] - hip_xy, axis=1)
-            reach = ankles[:, k, 2] + np.sqrt(np.maximum((0.996 * leg) ** 2 - horiz ** 2, 0.0))
-            u = np.mod(phase_l + 0.5 * k, 1.0)
-            loaded = (u < duty) | (u > 0.93)  # stance, or about to land
-            z = np.where(loaded, np.minimum(z, reach), z)
+        z = _walk_pelvis_height(t, feet, trunk, P, freq, duty)
     else:  # jog: highest in flight, knees ≈ 40° at mid-stance
         z = (P.ankle_h + 0.925 * leg
              + bob * 1000 * scale * 0.5 * (1 - np.cos(2 * ph2 - 2 * np.pi * duty)))
