@@ -112,6 +112,13 @@ def test_same_seed_gives_identical_files_and_another_seed_does_not(tmp_path):
         assert filecmp.cmp(a / rel, b / rel, shallow=False), rel
     video = Path("S1") / "Image_Data" / "Box_1_(C2).avi"
     assert not filecmp.cmp(a / video, c / video, shallow=False)
+    # the default codec (MJPG) reads back with exactly the frames written
+    lead = int(read_ofs(a / "S1" / "Sync_Data" / "Box_1_(C2).ofs")[0]) - 1
+    cap = cv2.VideoCapture(str(a / video))
+    n = 0
+    while cap.read()[0]:
+        n += 1
+    assert n == lead + 3 == int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
 
 
 def test_packaged_rig_is_the_calib_folder():
