@@ -87,3 +87,14 @@ def test_walking_knee_curve_has_the_double_hump_and_the_pelvis_bobs_smoothly():
     z = P[:, C["pelvis"], 2]
     assert 30 < np.ptp(z) < 90  # vertical excursion, mm
     assert np.abs(np.diff(z)).max() * FPS < 600  # no jumps: < 0.6 m/s vertical
+
+
+@pytest.mark.parametrize("kind", MOTIONS)
+def test_the_whole_body_stays_in_every_camera_of_the_default_rig(kind):
+    from voxelmocap.camera import Rig
+    from voxelmocap.synth import default_rig_path
+
+    rig = Rig.from_folder(default_rig_path())
+    P = place_in_area(procedural_points(kind, np.arange(0, 12, 1 / 15), seed=1), 15.0)
+    for cam in rig:
+        assert cam.in_image(cam.project(P.reshape(-1, 3))).all(), cam.name
