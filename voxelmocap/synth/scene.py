@@ -172,21 +172,30 @@ class Scene:
         normal[np.arange(len(d)), axis] = -np.sign(d[np.arange(len(d)), axis])
         obj = np.full(len(d), -1)
         for k, b in enumerate(self.boxes):
+            # Only rays passing within the box's bounding sphere can hit it (cheap pre-test).
+            centre, radius = 0.5 * (b.lo + b.hi), 0.5 * np.linalg.norm(b.hi - b.lo)
+            v = centre - o
+            along = d @ v
+            near = np.flatnonzero((v @ v - along * along <= radius * radius) & (along > -radius))
+            if near.size == 0:
+                continue
+            dn, invn = d[near], inv[near]
             with np.errstate(divide="ignore", invalid="ignore"):
-                t1 = (b.lo - o) * inv
-                t2 = (b.hi - o) * inv
+                t1 = (b.lo - o) * invn
+                t2 = (b.hi - o) * invn
             tmin3 = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2))
             tmax3 = np.where(np.isnan(t1), np.inf, np.maximum(t1, t2))
             tn = _max3(tmin3)
             tf = _min3(tmax3)
-            hit = (tn <= tf) & (tn > 0) & (tn < t)
+            hit = (tn <= tf) & (tn > 0) & (tn < t[near])
             if np.any(hit):
+                idx = near[hit]
                 ax = np.argmax(tmin3[hit], axis=1)
-                t[hit] = tn[hit]
-                n = np.zeros((hit.sum(), 3))
-                n[np.arange(len(n)), ax] = -np.sign(d[hit][np.arange(len(n)), ax])
-                normal[hit] = n
-                obj[hit] = k
+                t[idx] = tn[hit]
+                n = np.zeros((len(idx), 3))
+                n[np.arange(len(idx)), ax] = -np.sign(dn[hit][np.arange(len(idx)), ax])
+                normal[idx] = n
+                obj[idx] = k
         p = o + t[:, None] * d
         colour = self._albedo(p, normal, obj, axis)
         lam = np.clip(normal @ LIGHT, 0.0, 1.0)
