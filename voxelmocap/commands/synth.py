@@ -9,15 +9,17 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "synth",
         help="render a synthetic HumanEva-format sequence (procedural motion or a BVH clip)",
-        description="Render a motion (built-in walk/jog/box/gestures/throwcatch, or a BVH file of "
-                    "a supported skeleton) into every camera of a rig, over a textured room with "
+        description="Render a motion (built-in walk/jog/box/gestures/throwcatch, a BVH file of "
+                    "a supported skeleton or a CMU AMC file) into every camera of a rig, over a "
+                    "textured room with "
                     "a soft floor shadow, sensor noise and flicker, and write it in the "
                     "HumanEva-I layout: .cal, .avi, .ofs (different lead per camera), background "
                     "videos, body_pose XML ground truth and <Subject>_body.toml.",
     )
     parser.add_argument("out", help="data set root to write (created if needed)")
     parser.add_argument("--motion", default="walk",
-                        help="walk, jog, box, gestures, throwcatch, or PATH.bvh (default walk)")
+                        help="walk, jog, box, gestures, throwcatch, PATH.bvh or PATH.amc (its .asf "
+                             "beside it; default walk)")
     parser.add_argument("--subject", default="S1", help="subject name (default S1)")
     parser.add_argument("--action", default=None,
                         help="HumanEva action name (default from the motion, Combo for BVH)")
