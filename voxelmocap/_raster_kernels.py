@@ -213,19 +213,19 @@ def _column_interval(tp, ap, bp, nz, u1z, u2z, inv_h, inv_w, length, k_r, bz, oz
     else:
         klo = max(int(math.ceil(max(kf_lo, kmin - 1.0))) - 1, kmin)
         khi = min(int(math.floor(min(kf_hi, kmax + 1.0))) + 1, kmax)
-    while klo <= khi and not _inside_outlined(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z, u2z,
-                                     inv_h, inv_w, length, k_r):
+    while klo <= khi and not _inside_outlined(tp, ap, bp, oz + (klo + 0.5) * vs - bz, nz, u1z,
+                                              u2z, inv_h, inv_w, length, k_r):
         klo += 1
-    while khi >= klo and not _inside_outlined(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z, u2z,
-                                     inv_h, inv_w, length, k_r):
+    while khi >= klo and not _inside_outlined(tp, ap, bp, oz + (khi + 0.5) * vs - bz, nz, u1z,
+                                              u2z, inv_h, inv_w, length, k_r):
         khi -= 1
     if klo > khi:
         return 1, 0
     while klo > kmin and _inside_outlined(tp, ap, bp, oz + (klo - 0.5) * vs - bz, nz, u1z, u2z,
-                                 inv_h, inv_w, length, k_r):
+                                          inv_h, inv_w, length, k_r):
         klo -= 1
     while khi < kmax and _inside_outlined(tp, ap, bp, oz + (khi + 1.5) * vs - bz, nz, u1z, u2z,
-                                 inv_h, inv_w, length, k_r):
+                                          inv_h, inv_w, length, k_r):
         khi += 1
     return klo, khi
 
