@@ -2,26 +2,26 @@
 
 A state is a float vector of 27 numbers (paper 002 §2.2, Fig. 2a):
 
-====  =====================  ====================================================================
-idx   name                   meaning (angles in radians, translations in mm)
-====  =====================  ====================================================================
-0-2   root_x, root_y, root_z pelvis position in the world (Z up, floor at 0)
-3     root_yaw               heading about the world Z axis (0 = facing +Y, subject's right = +X)
-4     root_pitch             forward tilt of the whole body about its lateral axis
-5     root_roll              sideways tilt about its forward axis (+ = lean to its right)
-6-8   waist_flex/side/twist  torso relative to the pelvis: flexion (+ forward), lateral bend
-                             (+ to its right), axial rotation (+ turning left)
-9-10  neck_flex, neck_side   head relative to the torso: flexion (+ chin down), lateral bend
-11-13 l_shoulder_flex/abd/rot upper arm: flexion (+ forward), abduction (+ away from the body),
-                             internal rotation (+ inward)
-14-16 r_shoulder_…           same for the right arm (same anatomical signs)
-17    l_elbow                elbow flexion (0 = straight)
+====  =======================  ==================================================================
+idx   name                     meaning (angles in radians, translations in mm)
+====  =======================  ==================================================================
+0-2   root_x, root_y, root_z   pelvis position in the world (Z up, floor at 0)
+3     root_yaw                 heading about the world Z axis (0 = facing +Y, its right = +X)
+4     root_pitch               forward tilt of the whole body about its lateral axis
+5     root_roll                sideways tilt about its forward axis (+ = lean to its right)
+6-8   waist_flex/side/twist    torso relative to the pelvis: flexion (+ forward), lateral bend
+                               (+ to its right), axial rotation (+ turning left)
+9-10  neck_flex, neck_side     head relative to the torso: flexion (+ chin down), lateral bend
+11-13 l_shoulder_flex/abd/rot  upper arm: flexion (+ forward), abduction (+ away from the body),
+                               internal rotation (+ inward)
+14-16 r_shoulder_…             same for the right arm (same anatomical signs)
+17    l_elbow                  elbow flexion (0 = straight)
 18    r_elbow
-19-21 l_hip_flex/abd/rot     thigh: flexion (+ forward), abduction (+ outward), internal rotation
+19-21 l_hip_flex/abd/rot       thigh: flexion (+ forward), abduction (+ outward), internal rotation
 22-24 r_hip_…
-25    l_knee                 knee flexion (0 = straight, + = shin backwards)
+25    l_knee                   knee flexion (0 = straight, + = shin backwards)
 26    r_knee
-====  =====================  ====================================================================
+====  =======================  ==================================================================
 
 Joint ranges are the normal active ranges of motion of adults published by the American Academy of
 Orthopaedic Surgeons (AAOS, *Joint Motion: Method of Measuring and Recording*, 1965), as tabulated
