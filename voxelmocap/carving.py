@@ -16,11 +16,12 @@ if smaller) are therefore treated as outside the image.
 
 Cameras are static, so :class:`Carver` projects every voxel centre once per (rig, grid) into an
 ``(N_C, n_voxels)`` int32 table of flat pixel indices (-1 = not seen); each frame is then a gather
-and an AND in a parallel numba kernel (:mod:`voxelmocap._carving_kernels`) with an early exit at the
-first empty view. Before that, whole bricks of 6×6×6 voxels are rejected at once: each brick's pixel
+and an AND in a numba kernel (:mod:`voxelmocap._carving_kernels`) with an early exit at the first
+empty view. Before that, whole bricks of 6×6×6 voxels are rejected at once: each brick's pixel
 rectangle per camera is stored with the tables, and a rectangle without silhouette pixels (one
 look-up in the mask's integral image) proves the camera carves the whole brick, so the empty room
-around the person costs one test per brick instead of one per voxel. :func:`carve` keeps the last
+around the person costs one test per brick instead of one per voxel (~1 ms per 3.8 M-voxel frame,
+serial; see ``docs/benchmarks.md``). :func:`carve` keeps the last
 two carvers in a cache. :func:`carve_reference` is the plain NumPy implementation (straight through
 ``Camera.project``) that the tests compare against voxel for voxel.
 
