@@ -337,7 +337,7 @@ def quarters(per_frame) -> str:
 
 def print_header() -> None:
     print(f"{'setting':34s} {'μ mm':>13s} {'MMTA %':>12s}  {'per quarter (mm)':22s} "
-          f"{'worst landmarks (mm)':40s} {'s/frame':>7s}")
+          f"{'worst landmarks (mm)':40s} {'s/frame':>7s}  μ per seed")
 
 
 def print_table(rows: list[tuple[str, list[dict]]]) -> None:
@@ -351,7 +351,8 @@ def print_table(rows: list[tuple[str, list[dict]]]) -> None:
         sd = f"±{mu.std(ddof=1):4.0f}" if len(runs) > 1 else "     "
         sdm = f"±{mm.std(ddof=1):3.0f}" if len(runs) > 1 else "    "
         print(f"{name:34s} {mu.mean():7.1f}{sd} {mm.mean():7.1f}{sdm}  {quarters(pf):22s} "
-              f"{', '.join(f'{k} {v:.0f}' for k, v in worst):40s} {sec:7.2f}")
+              f"{', '.join(f'{k} {v:.0f}' for k, v in worst):40s} {sec:7.2f}  "
+              + " ".join(f"{m:.0f}" for m in mu))
     sys.stdout.flush()
 
 
