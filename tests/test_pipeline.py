@@ -122,3 +122,20 @@ def test_track_bad_input_is_one_line(walk_dataset, finished_run, tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
     assert not (tmp_path / "run" / "S1" / "Walking_1.h5").exists()  # nothing half-written
+
+
+# 8 frames of a slow walk are too few for MOG2 to separate the person from the room (on a 60-frame
+# walk the fallback tracks at μ ≈ 160 mm); this checks the mechanism, not the masks.
+@pytest.mark.filterwarnings("ignore::voxelmocap.carving.EmptySilhouetteWarning")
+def test_without_background_videos_falls_back_to_mog2(walk_dataset, tmp_path):
+    import shutil
+
+    data = tmp_path / "data"
+    shutil.copytree(walk_dataset, data, ignore=shutil.ignore_patterns("Background"))
+    messages = []
+    outcome = track_sequence(data, "S1", "Walking_1", tmp_path / "run", frames="1:2",
+                             config=with_overrides(SMALL, **{"filter.layers": 1,
+                                                             "filter.particles": 20}),
+                             progress=False, log=messages.append)
+    assert any("using MOG2" in m for m in messages)
+    assert len(read_result(outcome.result_path)) == 2

@@ -169,13 +169,23 @@ class MeasurementRunner:
             if paths:
                 per_video = max(1, mc.background_frames // len(paths))
                 frames[cam] = seq.background_sets(cam, max_frames=per_video)
-            elif silhouette.method == "gaussian":
-                raise InputError(seq.dataset.root / "Background",
-                                 f"no Background_*_({cam}).avi for the Gaussian background model; "
-                                 "add background videos or set measurement.silhouette.method = "
-                                 "\"mog2\"")
-        if log is not None and not frames:
-            log("no background videos: MOG2 learns the background from the sequence itself")
+        missing = [c for c in seq.camera_names if c not in frames]
+        if missing and silhouette.method == "gaussian":
+            # The toolkit's Gaussian model is the default only where background videos exist.
+            import dataclasses
+
+            silhouette = dataclasses.replace(silhouette, method="mog2")
+            # Train on frames spread over the whole sequence: a moving person averages out.
+            n = seq.n_frames
+            sample = np.unique(np.linspace(1, n, min(n, mc.background_frames)).round().astype(int))
+            for cam in missing:
+                frames[cam] = [[]]
+            for _, images in seq.frames(sample):
+                for cam in missing:
+                    frames[cam][0].append(images[cam])
+            if log is not None:
+                log(f"no background video for {', '.join(missing)}: using MOG2 learnt from "
+                    f"{len(sample)} frames spread over the sequence")
         backgrounds = build_backgrounds(silhouette, seq.camera_names, frames, sets=True)
         self.stage = MeasurementStage(rig, self.grid, backgrounds, silhouette,
                                       min_views=mc.min_views, sigma=mc.surface_sigma)
