@@ -69,6 +69,7 @@ SETTINGS: dict[str, dict] = {
     "limbs_by_speed": {"profile": "limbs_by_speed"},
     "rot0.03": {"filter.rotation_std_rad": 0.03},
     "rot0.1": {"filter.rotation_std_rad": 0.1},
+    "rot0.03_survival0.3": {"filter.rotation_std_rad": 0.03, "filter.survival": 0.3},
     "trans18": {"filter.translation_std_mm": 18.0},
     "trans35": {"filter.translation_std_mm": 35.0},
     # dynamics
