@@ -106,3 +106,31 @@ def test_info_bad_input_is_one_line_exit_2(tmp_path, damage, message):
     assert len(lines) == 1, result.stderr
     assert message in lines[0]
     assert "Traceback" not in result.stderr
+
+
+def test_camera_subset_keeps_the_full_timeline(tmp_path):
+    from voxelmocap.io.humaneva import sync_starts, write_ofs
+
+    root = make_tiny_dataset(tmp_path / "d")
+    ofs = {"C1": (14, 5, 1.0), "C2": (15, 5, 1.0), "BW1": (13.3, 5, 1.1)}
+    for cam, values in ofs.items():
+        write_ofs(root / "S1" / "Sync_Data" / f"Walking_1_({cam}).ofs", *values)
+    full, _, _ = sync_starts(ofs)
+    alone, _, _ = sync_starts({"BW1": ofs["BW1"]})
+    assert full["BW1"] != alone["BW1"]  # the case where a per-subset timeline goes wrong
+    ds = Dataset(root)
+    assert ds.sequence("S1", "Walking_1", cameras=["BW1"]).starts == {"BW1": full["BW1"]}
+    assert ds.sequence("S1", "Walking_1", cameras=["C2", "C1"]).starts == {
+        "C1": full["C1"], "C2": full["C2"]}
+    with pytest.raises(InputError, match="no camera names"):
+        ds.sequence("S1", "Walking_1", cameras=[" "])
+
+
+def test_image_folder_gap_is_an_error_not_a_shift(tmp_path):
+    root = make_tiny_dataset(tmp_path / "d", image_folder_camera="C2")
+    folder = root / "S1" / "Image_Data" / "Walking_1_(C2)"
+    (folder / "frame_00010.png").unlink()  # video frame 10 = synchronised frame 3
+    seq = Dataset(root).sequence("S1", "Walking_1", cameras=["C2"])
+    assert decode_frame_number(seq.read_frame(4)["C2"]) == 11
+    with pytest.raises(InputError, match="no image file with counter 10"):
+        seq.read_frame(3)

@@ -137,16 +137,18 @@ class _VideoStream:
         self.gray = gray
         if path.is_dir():
             files = [p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES]
-            numbered = []
+            numbered = {}
             for p in files:
                 digits = re.findall(r"\d+", p.stem)
                 if digits:
-                    numbered.append((int(digits[-1]), p))
+                    numbered[int(digits[-1])] = p
             if not numbered:
                 raise InputError(path, "image folder holds no numbered image files")
-            numbered.sort()
-            self._files = [p for _, p in numbered]
-            self.n_frames = len(self._files)
+            # Video frame k (1-based) is the file with counter first + k − 1 (toolkit
+            # cur_image); a gap is an error, never a silent shift of later frames.
+            self._first = min(numbered)
+            self._files = numbered
+            self.n_frames = max(numbered) - self._first + 1
         else:
             self._files = None
             cap = cv2.VideoCapture(str(path))
@@ -175,7 +177,11 @@ class _VideoStream:
             for i in indices:
                 if not 0 <= i < self.n_frames:
                     raise InputError(self.path, f"frame {i + 1} is outside 1..{self.n_frames}")
-                yield i, self._convert(cv2.imread(str(self._files[i]), cv2.IMREAD_UNCHANGED), i)
+                file = self._files.get(self._first + i)
+                if file is None:
+                    raise InputError(self.path, f"no image file with counter {self._first + i} "
+                                                f"(video frame {i + 1})")
+                yield i, self._convert(cv2.imread(str(file), cv2.IMREAD_UNCHANGED), i)
             return
         cap = cv2.VideoCapture(str(self.path))
         try:
@@ -310,9 +316,12 @@ class Sequence:
                 ofs_files[m["cam"]] = p
         if not ofs_files:
             raise InputError(sync_dir, f"no .ofs sync files for {name}")
-        names = sort_camera_names(ofs_files)
+        all_names = sort_camera_names(ofs_files)
+        names = all_names
         if cameras is not None:
-            wanted = [c.strip() for c in cameras]
+            wanted = [c.strip() for c in cameras if c.strip()]
+            if not wanted:
+                raise InputError("--cameras", "no camera names given")
             upper = {n.upper(): n for n in names}
             missing = [c for c in wanted if c.upper() not in upper]
             if missing:
@@ -320,8 +329,18 @@ class Sequence:
                                            f"{', '.join(missing)} (have {', '.join(names)})")
             names = sort_camera_names(upper[c.upper()] for c in wanted)
         self.camera_names: list[str] = names
-        self.ofs = {cam: read_ofs(ofs_files[cam]) for cam in names}
-        self.starts, self.common_time, self.common_scaling = sync_starts(self.ofs)
+        # The common timeline is built from every camera whose .ofs reads (toolkit sync_stream),
+        # whichever cameras are used, so that frame F is the same instant for any subset.
+        timeline = {}
+        for cam in all_names:
+            try:
+                timeline[cam] = read_ofs(ofs_files[cam])
+            except InputError:
+                if cam in names:
+                    raise
+        self.ofs = {cam: timeline[cam] for cam in names}
+        starts, self.common_time, self.common_scaling = sync_starts(timeline)
+        self.starts = {cam: starts[cam] for cam in names}
 
     # ------------------------------------------------------------------ calibration
     @cached_property
