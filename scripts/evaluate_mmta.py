@@ -29,6 +29,8 @@ def main(argv=None) -> int:
     parser.add_argument("--delta", type=float, default=100.0, help="MMTA threshold in mm (default 100)")
     parser.add_argument("--json", help="write the JSON report here")
     args = parser.parse_args(argv)
+    if not args.delta > 0:
+        parser.error("--delta must be positive")
     if len(args.files) % 2:
         parser.error("files must come in RESULT GT pairs")
     try:

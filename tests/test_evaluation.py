@@ -114,3 +114,17 @@ def test_evaluate_sequence_skips_disabled_frames_and_computes_mu_sigma():
     assert scores.humaneva_error_mm == pytest.approx(50.0)
     np.testing.assert_array_equal(per["valid"], [True, True, False])
     assert np.isnan(per["mean_error"][2])
+
+
+def test_disabled_estimate_endpoints_are_left_out():
+    from voxelmocap.evaluation import evaluate_sequence
+
+    gt = np.stack([base_pose()] * 2)
+    est = gt + np.array([0.0, 0.0, 40.0])
+    est[:, E["headDistal"]] = 0.0  # a placeholder the other tracker did not estimate
+    enabled = np.ones((2, 20), bool)
+    enabled[:, E["headDistal"]] = False
+    scores, per = evaluate_sequence(est, gt, delta=100.0, est_enabled=enabled)
+    assert scores.humaneva_error_mm == pytest.approx(40.0)  # head dropped, as error() does
+    assert scores.mu_mm == pytest.approx(40.0)  # head left out of μ
+    assert scores.mmta_pct == pytest.approx(100.0 * 14 / 15)  # head counts as a miss

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -190,7 +191,9 @@ def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: fl
     delta : float
         MMTA/MMTP threshold (mm).
     est_enabled : (F, 20) array_like of bool, optional
-        Estimate flags (passed to the HumanEva error).
+        Estimate flags: disabled endpoints are left out of the HumanEva error (as the toolkit
+        does); a landmark with no enabled estimate counts as unmatched for MMTA and is left out
+        of μ.
 
     Returns
     -------
@@ -207,19 +210,24 @@ def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: fl
     enabled = np.ones((n, 20), bool) if gt_enabled is None else np.asarray(gt_enabled, bool)
     valid = enabled.all(axis=1)
     errors = np.full((n, 15), np.nan)
-    errors[valid] = landmark_errors(endpoints_to_landmarks(est[valid]),
+    est_flags = None if est_enabled is None else np.asarray(est_enabled, bool)[valid]
+    # A landmark whose estimated endpoints are all disabled has NaN error: never matched (MMTA
+    # counts it as a miss) and left out of the frame's mean error.
+    errors[valid] = landmark_errors(endpoints_to_landmarks(est[valid], est_flags),
                                     endpoints_to_landmarks(gt[valid]))
-    mean_error = errors.mean(axis=1)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        mean_error = np.nanmean(errors, axis=1)
     he = np.full(n, np.nan)
     if valid.any():
-        he[valid] = humaneva_error(est[valid], gt[valid], None if est_enabled is None else
-                                   np.asarray(est_enabled, bool)[valid], enabled[valid])
+        he[valid] = humaneva_error(est[valid], gt[valid], est_flags, enabled[valid])
     mmta_f = np.full(n, np.nan)
     mmtp_f = np.full(n, np.nan)
     mmta, mmtp, (a, p) = mmta_mmtp(errors[valid], delta)
     mmta_f[valid] = a
     mmtp_f[valid] = p
     m = mean_error[valid]
+    m = m[~np.isnan(m)]
     scores = SequenceScores(
         frames=int(valid.sum()),
         skipped=int((~valid).sum()),

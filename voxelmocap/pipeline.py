@@ -66,6 +66,8 @@ def parse_frame_range(text: str | None, available: np.ndarray) -> np.ndarray:
     available = np.asarray(available, dtype=int)
     if text is None or text.strip() in ("", ":"):
         return available
+    if len(available) == 0:
+        raise InputError("--frames", "the sequence has no synchronised frame in every camera")
     lo_avail, hi_avail = int(available.min()), int(available.max())
     try:
         if ":" in text:
@@ -282,11 +284,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         Frame rate written to the BVH.
     """
     from .body import fit_to_landmarks
-    from .io.body_pose_xml import write_body_pose_xml
-    from .io.bvh_writer import write_landmarks_bvh
     from .io.humaneva import Dataset
     from .io.results import TrackResult, read_result, write_result
-    from .joints import endpoints_to_landmarks
     from .likelihood import log_likelihood, part_scores
 
     config = config or TrackConfig()
@@ -337,6 +336,9 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 raise InputError(result_path, "cannot resume: the file has no checkpoint")
             if bool(previous.attrs.get("complete")):
                 log(f"{result_path} is already complete")
+                if not (xml_path.exists() and bvh_path.exists()):  # interrupted after the h5
+                    _write_exports(xml_path, bvh_path, seq, gt, previous.frames,
+                                   previous.endpoints, fps)
                 return TrackOutcome(result_path, xml_path, bvh_path, previous.frames,
                                     str(previous.attrs.get("init_method")), len(previous),
                                     float(np.mean(previous.seconds)))
@@ -393,16 +395,26 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         if bar is not None:
             bar.close()
 
-    endpoints = np.array(done["endpoints"])
-    write_body_pose_xml(xml_path, done["frames"], endpoints,
-                        attributes={"DatasetName": "voxelmocap", "SubjectName": seq.subject,
-                                    "ActionType": seq.action, "Trial": seq.trial,
-                                    "FrameStart": int(done["frames"][0]),
-                                    "FrameEnd": int(done["frames"][-1]),
-                                    "Partition": "Result"})
-    write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
+    _write_exports(xml_path, bvh_path, seq, gt, np.array(done["frames"]),
+                   np.array(done["endpoints"]), fps)
     return TrackOutcome(result_path, xml_path, bvh_path, np.array(done["frames"]), init_method,
                         resumed_from, float(np.mean(done["seconds"])))
+
+
+def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
+    """The body_pose XML (HUMANEVA.md §6) and the BVH of tracked poses."""
+    from .io.body_pose_xml import write_body_pose_xml
+    from .io.bvh_writer import write_landmarks_bvh
+    from .joints import endpoints_to_landmarks
+
+    source = gt.attributes if gt is not None else {}
+    attributes = {"DatasetName": source.get("DatasetName", "HumanEvaI"),
+                  "DatasetBasePath": source.get("DatasetBasePath", "../"),
+                  "SubjectName": seq.subject, "ActionType": seq.action, "Trial": seq.trial,
+                  "FrameStart": int(frames[0]), "FrameEnd": int(frames[-1]),
+                  "Partition": source.get("Partition", "Validate")}
+    write_body_pose_xml(xml_path, frames, endpoints, attributes=attributes)
+    write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
 
 
 def _initial_state(config, gt, frame_number, model, measurement, variances, fit_to_landmarks):

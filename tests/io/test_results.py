@@ -49,3 +49,33 @@ def test_corrupt_and_foreign_files(tmp_path):
         read_result(other)
     with pytest.raises(InputError, match="not found"):
         read_result(tmp_path / "none.h5")
+
+
+def test_damaged_result_files(tmp_path):
+    import h5py
+
+    good = tmp_path / "good.h5"
+    write_result(good, make_result())
+    for name, edit, message in [
+        ("no_names.h5", lambda f: f.__delitem__("state_names"), "no 'state_names'"),
+        ("bad_shape.h5", lambda f: (f.__delitem__("endpoints"),
+                                    f.create_dataset("endpoints", data=np.zeros((4, 19, 3)))),
+         "'endpoints' has shape"),
+        ("bad_ckpt.h5", lambda f: f["checkpoint"].attrs.__delitem__("scalars"),
+         "damaged checkpoint"),
+    ]:
+        path = tmp_path / name
+        path.write_bytes(good.read_bytes())
+        with h5py.File(path, "r+") as f:
+            edit(f)
+        with pytest.raises(InputError, match=message):
+            read_result(path)
+
+
+def test_output_paths(tmp_path):
+    with pytest.raises(InputError, match="is a folder"):
+        write_result(tmp_path, make_result())
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(InputError, match="not a folder"):
+        write_result(blocker / "r.h5", make_result())

@@ -49,11 +49,17 @@ def describe(dataset, subject=None, sequence=None) -> list[str]:
             gt = seq.ground_truth()
             if gt is None:
                 lines.append("      ground truth: none")
+            elif len(gt) == 0:
+                lines.append("      ground truth: the XML holds no frame")
             else:
                 n_valid = int(gt.enabled.all(axis=1).sum())
                 lines.append(f"      ground truth: {len(gt)} frames ({gt.frames.min()}–"
                              f"{gt.frames.max()}), {n_valid} fully enabled")
             body = seq.body_file
+            if body is not None:
+                from ..body import BodyModel
+
+                BodyModel.from_file(body)  # validates it
             lines.append(f"      subject body file: {body.name if body else 'none'}")
     if bdir is None:
         lines.append("  no Background folder")

@@ -7,7 +7,21 @@ import os
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text"]
+from ..errors import InputError
+
+__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "ensure_output_dir"]
+
+
+def ensure_output_dir(path) -> Path:
+    """Create the folder ``path`` (and parents); :class:`InputError` if that is impossible."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(path, "exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(path, f"cannot create the output folder ({exc.strerror or exc})") from None
+    return path
 
 
 @contextlib.contextmanager
@@ -17,7 +31,9 @@ def atomic_path(path) -> Iterator[Path]:
     The temporary name keeps the suffix, so writers that dispatch on it (OpenCV, h5py) still work.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_dir():
+        raise InputError(path, "is a folder; give a file name")
+    ensure_output_dir(path.parent)
     tmp = path.with_name(f".{path.stem}.partial{os.getpid()}{path.suffix}")
     try:
         yield tmp

@@ -183,7 +183,8 @@ def write_body_pose_xml(path, frames, endpoints, enabled=None, *, attributes=Non
     Parameters
     ----------
     path : str or os.PathLike
-        Output file; ``.xml`` is appended when the name has no extension (as the toolkit does).
+        Output file; as in the toolkit, a three-letter extension must be ``xml``, and ``.xml`` is
+        appended to any other name.
     frames : (F,) array_like of int
         1-based synchronised frame numbers.
     endpoints : (F, 20, D) array_like
@@ -198,8 +199,13 @@ def write_body_pose_xml(path, frames, endpoints, enabled=None, *, attributes=Non
         Per-frame errors; ``N/A`` where None or NaN.
     """
     path = Path(path)
-    if not path.suffix:
-        path = path.with_suffix(".xml")
+    # The toolkit's rule: a name whose 4th character from the end is a dot must end in xml/XML;
+    # any other name gets ".xml" appended.
+    if len(path.name) >= 4 and path.name[-4] == ".":
+        if path.name[-3:] not in ("xml", "XML"):
+            raise InputError(path, "a body_pose XML file name must end in .xml")
+    else:
+        path = path.with_name(path.name + ".xml")
     frames = np.asarray(frames).reshape(-1)
     endpoints = np.asarray(endpoints, dtype=float)
     if endpoints.ndim != 3 or endpoints.shape[1] != 20 or endpoints.shape[2] not in (2, 3):

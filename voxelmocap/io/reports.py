@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import InputError
 from ..evaluation import SequenceScores, evaluate_sequence
 from ..joints import LANDMARK_NAMES
-from ._atomic import atomic_write_text
+from ._atomic import atomic_write_text, ensure_output_dir
 from .body_pose_xml import read_body_pose_xml
 
 __all__ = [
@@ -51,25 +51,27 @@ class EvaluatedSequence:
     missing_gt: int  #: result frames without ground truth
     scores: SequenceScores
     per_frame: dict
+    est_enabled: np.ndarray | None = None  #: (F, 20)
 
 
-def read_poses(path) -> tuple[np.ndarray, np.ndarray]:
-    """``(frames (F,), endpoints (F, 20, 3))`` of a result ``.h5`` or body_pose ``.xml``."""
+def read_poses(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(frames (F,), endpoints (F, 20, 3), enabled (F, 20))`` of a result ``.h5`` or ``.xml``."""
     path = Path(path)
     if path.suffix.lower() == ".h5":
         from .results import read_result
 
         res = read_result(path)
-        return np.asarray(res.frames, int), np.asarray(res.endpoints, float)
+        endpoints = np.asarray(res.endpoints, float)
+        return np.asarray(res.frames, int), endpoints, np.ones(endpoints.shape[:2], bool)
     seq = read_body_pose_xml(path)
     if seq.endpoints.shape[-1] != 3:
         raise InputError(path, "holds 2-D poses; 3-D endpoints are needed")
-    return seq.frames, seq.endpoints
+    return seq.frames, seq.endpoints, seq.enabled
 
 
 def score_against(result_path, gt_path, *, delta: float, subject="", action="", trial=""):
     """Match a result with a ground-truth XML by frame number and score it."""
-    frames, est = read_poses(result_path)
+    frames, est, est_enabled = read_poses(result_path)
     gt = read_body_pose_xml(gt_path)
     if gt.endpoints.shape[-1] != 3:
         raise InputError(gt_path, "ground truth holds 2-D poses")
@@ -78,10 +80,11 @@ def score_against(result_path, gt_path, *, delta: float, subject="", action="", 
     if not keep.any():
         raise InputError(result_path, f"no frame in common with the ground truth {gt_path}")
     scores, per_frame = evaluate_sequence(est[keep], gt.endpoints[rows[keep]],
-                                          gt.enabled[rows[keep]], delta=delta)
+                                          gt.enabled[rows[keep]], delta=delta,
+                                          est_enabled=est_enabled[keep])
     return EvaluatedSequence(subject, action, trial, Path(result_path), frames[keep], est[keep],
                              gt.endpoints[rows[keep]], gt.enabled[rows[keep]],
-                             int((~keep).sum()), scores, per_frame)
+                             int((~keep).sum()), scores, per_frame, est_enabled[keep])
 
 
 def find_result_files(run_dir) -> list[Path]:
@@ -121,7 +124,9 @@ def _pooled(sequences: list[EvaluatedSequence], delta: float) -> SequenceScores:
     est = np.concatenate([s.est for s in sequences])
     gt = np.concatenate([s.gt for s in sequences])
     enabled = np.concatenate([s.gt_enabled for s in sequences])
-    return evaluate_sequence(est, gt, enabled, delta=delta)[0]
+    est_enabled = np.concatenate([np.ones(s.est.shape[:2], bool) if s.est_enabled is None
+                                  else s.est_enabled for s in sequences])
+    return evaluate_sequence(est, gt, enabled, delta=delta, est_enabled=est_enabled)[0]
 
 
 def table_rows(sequences: list[EvaluatedSequence], delta: float):
@@ -180,8 +185,7 @@ def write_json(path, report: dict) -> None:
 
 def write_csvs(out_dir, sequences: list[EvaluatedSequence]) -> tuple[Path, Path]:
     """``per_frame.csv`` (one row per frame) and ``per_joint.csv`` (one row per frame and joint)."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = ensure_output_dir(out_dir)
     frame_buf, joint_buf = io.StringIO(), io.StringIO()
     fw = csv.writer(frame_buf, lineterminator="\n")
     jw = csv.writer(joint_buf, lineterminator="\n")

@@ -100,6 +100,19 @@ def write_result(path, result: TrackResult) -> None:
                 _write_checkpoint(f.create_group("checkpoint"), result.checkpoint)
 
 
+def _check_shapes(path, data: dict) -> None:
+    n = len(np.atleast_1d(data["frames"]))
+    expected = {"frames": (n,), "state": (n, None), "landmarks": (n, 15, 3),
+                "endpoints": (n, 20, 3), "part_scores": (n, None, 4), "ess": (n, None),
+                "betas": (n, None), "seconds": (n,), "log_likelihood": (n,),
+                "map_state": (n, None)}
+    for name, shape in expected.items():
+        got = np.shape(data[name])
+        if len(got) != len(shape) or any(e is not None and g != e for g, e in zip(got, shape, strict=True)):
+            want = "×".join("*" if e is None else str(e) for e in shape)
+            raise InputError(path, f"dataset {name!r} has shape {got}, expected {want}")
+
+
 def read_result(path) -> TrackResult:
     """Read a result file written by :func:`write_result`.
 
@@ -113,17 +126,26 @@ def read_result(path) -> TrackResult:
         raise InputError(path, "result file not found")
     try:
         with h5py.File(path, "r") as f:
-            missing = [n for n in _PER_FRAME if n not in f]
+            missing = [n for n in (*_PER_FRAME, "state_names", "part_names") if n not in f]
             if missing:
                 raise InputError(path, f"not a voxelmocap result file (no {missing[0]!r} dataset)")
             data = {n: f[n][()] for n in _PER_FRAME}
+            _check_shapes(path, data)
+            checkpoint = None
+            if "checkpoint" in f:
+                if "scalars" not in f["checkpoint"].attrs:
+                    raise InputError(path, "damaged checkpoint (no 'scalars' attribute)")
+                try:
+                    checkpoint = _read_checkpoint(f["checkpoint"])
+                except ValueError as exc:
+                    raise InputError(path, f"damaged checkpoint ({exc})") from None
             return TrackResult(
                 **data,
                 state_names=[s.decode() for s in f["state_names"][()]],
                 part_names=[s.decode() for s in f["part_names"][()]],
                 attrs={k: (v.item() if isinstance(v, np.generic) else v)
                        for k, v in f.attrs.items()},
-                checkpoint=_read_checkpoint(f["checkpoint"]) if "checkpoint" in f else None,
+                checkpoint=checkpoint,
             )
     except OSError as exc:
         raise InputError(path, f"cannot read HDF5 result file ({exc})") from None

@@ -35,8 +35,9 @@ def plot_errors(sequences, out_dir, *, delta: float = 100.0) -> list[Path]:
     from ..io._atomic import atomic_path
 
     plt = _pyplot()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from ..io._atomic import ensure_output_dir
+
+    out_dir = ensure_output_dir(out_dir)
     paths = []
 
     fig, ax = plt.subplots(figsize=(9, 4))
