@@ -124,7 +124,7 @@ def test_disabled_estimate_endpoints_are_left_out():
     est[:, E["headDistal"]] = 0.0  # a placeholder the other tracker did not estimate
     enabled = np.ones((2, 20), bool)
     enabled[:, E["headDistal"]] = False
-    scores, per = evaluate_sequence(est, gt, delta=100.0, est_enabled=enabled)
+    scores, _ = evaluate_sequence(est, gt, delta=100.0, est_enabled=enabled)
     assert scores.humaneva_error_mm == pytest.approx(40.0)  # head dropped, as error() does
     assert scores.mu_mm == pytest.approx(40.0)  # head left out of μ
     assert scores.mmta_pct == pytest.approx(100.0 * 14 / 15)  # head counts as a miss

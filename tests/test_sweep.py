@@ -44,3 +44,13 @@ def test_two_cell_sweep_on_a_local_dask_cluster(walk_dataset, tmp_path):
     run_sweep(walk_dataset, "S1", "Walking_1", out, **dict(kwargs, log=messages.append))
     assert messages == ["2 cells, 2 already done, 0 to run"]
     assert {p: p.stat().st_mtime_ns for p in out.glob("cells/*/score.json")} == stamps
+
+
+def test_changed_shared_settings_are_refused(tmp_path):
+    import voxelmocap.sweep as sweep
+
+    out = tmp_path / "sweep"
+    sweep._check_settings(out, {"frames": "1:2", "delta_mm": 100.0})
+    sweep._check_settings(out, {"frames": "1:2", "delta_mm": 100.0})  # same: fine
+    with pytest.raises(InputError, match="another frames"):
+        sweep._check_settings(out, {"frames": "1:6", "delta_mm": 100.0})

@@ -4,7 +4,9 @@ A *cell* is one combination of annealing layers ``N_L``, particles per layer ``N
 number of cameras and a replicate index. Each cell tracks the sequence with its own seed (derived
 from the cell's parameters, so seeds are distinct and stable across re-runs), evaluates it and
 writes ``SWEEP/cells/<cell>/score.json``. Cells whose score file exists are skipped, so an
-interrupted or extended sweep only runs what is missing. The collected table goes to
+interrupted or extended sweep only runs what is missing; the settings shared by all cells (data
+set, sequence, frames, δ, base config) are kept in ``SWEEP/settings.json`` and a re-run with
+other ones is refused rather than mixed in. The collected table goes to
 ``SWEEP/sweep.csv`` and, per (voxel size, cameras), a heatmap of MMTA over ``N_L × N_p``
 (``SWEEP/mmta_<voxel>mm_<cameras>cams.png``) like the paper's Fig. 4, with the cheapest cell
 (smallest ``N_L · N_p``) that reaches the best MMTA marked.
@@ -152,6 +154,29 @@ def best_cell(mmta: np.ndarray, layers, particles, *, tolerance: float = 0.0):
     return i, j
 
 
+def _check_settings(out_dir: Path, settings: dict) -> None:
+    """Refuse to mix cells made with other shared settings into one sweep folder.
+
+    Cells differ only by their own parameters (layers, particles, voxel size, cameras, replicate);
+    everything else is recorded once in ``SWEEP/settings.json`` and must match on a re-run.
+    """
+    from .io._atomic import atomic_write_text, ensure_output_dir
+
+    ensure_output_dir(out_dir)
+    path = out_dir / "settings.json"
+    if path.exists():
+        try:
+            previous = json.loads(path.read_text())
+        except (OSError, ValueError) as exc:
+            raise InputError(path, f"unreadable sweep settings ({exc})") from None
+        for key, value in settings.items():
+            if previous.get(key) != value:
+                raise InputError(out_dir, f"this sweep folder was made with another {key} "
+                                          f"({previous.get(key)!r}); use a new --out")
+        return
+    atomic_write_text(path, json.dumps(settings, indent=1) + "\n")
+
+
 def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particles,
               voxel_sizes=(20.0,), cameras=(7,), seeds: int = 1, frames=None,
               base_config_toml: str | None = None, scheduler: str | None = None,
@@ -171,7 +196,9 @@ def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particle
     if max(cameras) > len(seq.camera_names):
         raise InputError("--cameras", f"at most {len(seq.camera_names)} cameras in this sequence")
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    _check_settings(out_dir, {"dataset": str(Path(dataset).resolve()), "subject": seq.subject,
+                              "sequence": seq.name, "frames": frames, "delta_mm": delta,
+                              "config": base_config_toml or ""})
     cells = plan_cells(layers, particles, voxel_sizes, cameras, seeds)
     todo = [c for c in cells if not (out_dir / "cells" / c.name / "score.json").exists()]
     log(f"{len(cells)} cells, {len(cells) - len(todo)} already done, {len(todo)} to run")
