@@ -45,10 +45,14 @@ def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
     assert outcome.xml_path.exists() and outcome.bvh_path.exists()
 
 
-def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch):
+@pytest.mark.parametrize("method", ["gaussian", "mog2"])
+def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch, method):
     import voxelmocap.io.results as results
 
-    full = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "full", config=SMALL,
+    config = with_overrides(SMALL, **{"measurement.silhouette": {"method": method}})
+    if method == "mog2":  # the adaptive model must be replayed on resume
+        config = with_overrides(config, **{"filter.layers": 1, "filter.particles": 40})
+    full = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "full", config=config,
                           frames="1:5", seed=7, progress=False, log=lambda *_: None)
     real_write = results.write_result
     calls = {"n": 0}
@@ -61,18 +65,18 @@ def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch)
 
     monkeypatch.setattr(results, "write_result", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
                        frames="1:5", seed=7, progress=False, log=lambda *_: None)
     monkeypatch.setattr(results, "write_result", real_write)
     partial = read_result(tmp_path / "part" / "S1" / "Walking_1.h5")
     assert len(partial) == 2 and not partial.attrs["complete"]
     with pytest.raises(InputError, match="use --resume"):
-        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
                        frames="1:5", seed=7, progress=False, log=lambda *_: None)
     with pytest.raises(InputError, match="its seed differs"):
-        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
                        frames="1:5", seed=8, resume=True, progress=False, log=lambda *_: None)
-    resumed = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=SMALL,
+    resumed = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
                              frames="1:5", seed=7, resume=True, progress=False,
                              log=lambda *_: None)
     assert resumed.resumed_from == 2

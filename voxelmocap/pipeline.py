@@ -188,6 +188,9 @@ class MeasurementRunner:
             if log is not None:
                 log(f"no background video for {', '.join(missing)}: using MOG2 learnt from "
                     f"{len(sample)} frames spread over the sequence")
+        #: True when the background model keeps learning from the frames it segments (MOG2):
+        #: a resumed run must then replay the frames already done to rebuild its state.
+        self.adaptive = silhouette.method == "mog2" and silhouette.mog2_learning_rate != 0
         backgrounds = build_backgrounds(silhouette, seq.camera_names, frames, sets=True)
         self.stage = MeasurementStage(rig, self.grid, backgrounds, silhouette,
                                       min_views=mc.min_views, sigma=mc.surface_sigma)
@@ -356,6 +359,11 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         f"{config.filter.layers} layers × {config.filter.particles} particles "
         f"({config.filter.strategy}); body: {model_source}")
 
+    if resumed_from and stage.adaptive:
+        # MOG2 learnt from frames 1..k before the interruption; replay them so that the resumed
+        # run sees the same background model as an uninterrupted one.
+        for _, images in seq.frames(selected[:resumed_from]):
+            stage.stage.masks(images)
     todo = selected[resumed_from:]
     bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
     try:
