@@ -67,6 +67,7 @@ SETTINGS: dict[str, dict] = {
     "joint0.12": {"filter.joint_std_rad": 0.12},
     "joint0.07": {"filter.joint_std_rad": 0.07},
     "limbs_by_speed": {"profile": "limbs_by_speed"},
+    "pitch_roll_low": {"profile": "pitch_roll_low"},
     "rot0.03": {"filter.rotation_std_rad": 0.03},
     "rot0.1": {"filter.rotation_std_rad": 0.1},
     "rot0.03_survival0.3": {"filter.rotation_std_rad": 0.03, "filter.survival": 0.3},
@@ -136,10 +137,20 @@ def _limbs_by_speed(model, config, base):
     return std
 
 
+def _pitch_roll_low(model, config, base):
+    """Root pitch and roll at a third of ``rotation_std_rad`` (they span a near-null direction of
+    the likelihood with the waist and the hips); yaw and trunk unchanged."""
+    std = base(model, config).copy()
+    names = list(model.state_names)
+    for n in ("root_pitch", "root_roll"):
+        std[names.index(n)] = config.filter.rotation_std_rad / 3.0
+    return std
+
+
 #: Candidate bodies of ``pipeline.noise_std`` (setting key ``"profile"``), each given the current
 #: ``noise_std`` as ``base``.
 PROFILES = {"root_only": _root_only, "trunk_as_root": _trunk_as_root,
-            "limbs_by_speed": _limbs_by_speed}
+            "limbs_by_speed": _limbs_by_speed, "pitch_roll_low": _pitch_roll_low}
 
 #: The demo's working point (``voxelmocap demo``), on which every setting is applied.
 DEMO = {"filter.layers": 6, "filter.particles": 300, "measurement.voxel_size": 20.0}
