@@ -105,6 +105,7 @@ def finished_run(walk_dataset, tmp_path_factory):
         (["--frames", "5:99"], "outside the available frames"),
         (["--config", "{bad}"], "unknown key 'filter.particle'"),
         (["--config", "{missing}"], "missing.toml: file not found"),
+        (["--config", "{risk}"], "unknown camera 'C9'"),
         (["--resume", "--config", "{cfg}", "--out", "{finished}"],
          "cannot resume: its config differs"),
     ],
@@ -118,7 +119,9 @@ def test_track_bad_input_is_one_line(walk_dataset, finished_run, tmp_path, capsy
     capsys.readouterr()
     args = ["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
             "--frames", "1:1", "--no-progress", "--out", str(tmp_path / "run")]
-    subs = {"{bad}": str(bad), "{cfg}": str(cfg), "{finished}": str(finished_run),
+    risk = tmp_path / "risk.toml"
+    risk.write_text("[measurement.silhouette]\ncamera_risk = { C9 = 10.0 }\n")
+    subs = {"{risk}": str(risk), "{bad}": str(bad), "{cfg}": str(cfg), "{finished}": str(finished_run),
             "{missing}": str(tmp_path / "missing.toml")}
     extra = [subs.get(e, e) for e in extra]
     # later options win in argparse, so a case's own --out replaces the one above

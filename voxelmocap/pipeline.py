@@ -161,6 +161,12 @@ class MeasurementRunner:
         self.config = mc
         silhouette = SilhouetteConfig.from_dict(mc.silhouette, source="measurement.silhouette")
         rig = seq.rig
+        for key in ("camera_risk", "camera_var_threshold"):
+            unknown = sorted(set(getattr(silhouette, key)) - set(seq.all_camera_names))
+            if unknown:
+                raise InputError(f"measurement.silhouette.{key}",
+                                 f"unknown camera {unknown[0]!r} (this sequence has "
+                                 f"{', '.join(seq.all_camera_names)})")
         if mc.grid_origin is not None:
             self.grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
             self.grid.check_memory(8.0, what="the measurement volumes")

@@ -329,6 +329,8 @@ class Sequence:
                                            f"{', '.join(missing)} (have {', '.join(names)})")
             names = sort_camera_names(upper[c.upper()] for c in wanted)
         self.camera_names: list[str] = names
+        #: every camera with a sync file, used or not
+        self.all_camera_names: list[str] = all_names
         # The common timeline is built from every camera whose .ofs reads (toolkit sync_stream),
         # whichever cameras are used, so that frame F is the same instant for any subset.
         timeline = {}
