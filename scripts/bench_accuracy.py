@@ -56,19 +56,20 @@ def main() -> None:
                                               "filter.particles": args.particles})
     wanted = set(args.clips.split(",")) if args.clips else None
     rows = {}
-    for clip, action, start in CLIPS:
+    for index, (clip, action, start) in enumerate(CLIPS):
         if wanted and action not in wanted:
             continue
         data = out / "data"
         seq_name = f"{action}_1"
-        if not (data / "S1" / "Mocap_Data" / f"{seq_name}.xml").exists():
-            generate(data, motion=str(MOCAP / clip), frames=args.frames, action=action,
-                     start=start, progress=True)
-        gt_path = Dataset(data).sequence("S1", seq_name).ground_truth_path
+        subject = f"S{index + 1}"  # every clip is another performer, hence another subject
+        if not (data / subject / "Mocap_Data" / f"{seq_name}.xml").exists():
+            generate(data, motion=str(MOCAP / clip), frames=args.frames, subject=subject,
+                     action=action, start=start, progress=True)
+        gt_path = Dataset(data).sequence(subject, seq_name).ground_truth_path
         per_seed = []
         for seed in range(args.seeds):
             run = out / f"run_seed{seed}"
-            outcome = track_sequence(data, "S1", seq_name, run, config=config, seed=seed,
+            outcome = track_sequence(data, subject, seq_name, run, config=config, seed=seed,
                                      resume=True, progress=True)
             sc = score_against(outcome.result_path, gt_path, delta=100.0).scores
             fps = 1.0 / float(np.median(_seconds(outcome.result_path)))
