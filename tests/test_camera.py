@@ -192,6 +192,11 @@ def test_cal_parser_fuzz_on_numbers(tmp_path_factory, values):
     path = tmp_path_factory.mktemp("fuzz") / "X.cal"
     path.write_text("\n".join(repr(v) for v in values))
     try:
-        Camera.from_cal(path)
-    except InputError:
-        pass
+        cam = Camera.from_cal(path)
+    except InputError as exc:
+        assert str(exc).startswith(str(path))
+        return
+    # accepted: exactly 22 finite numbers, a rotation, and the capture centre in front
+    assert len(values) == 22 and np.all(np.isfinite(values))
+    np.testing.assert_allclose(cam.R @ cam.R.T, np.eye(3), atol=1e-3)
+    assert cam.looks_at()
