@@ -87,3 +87,11 @@ def test_errors(tiny_dataset, tmp_path):
     write_h5(run / "S1" / "Walking_1.h5", [500], np.zeros((1, 20, 3)))
     with pytest.raises(InputError, match="no frame in common"):
         evaluate_files(run, tiny_dataset)
+
+
+def test_unfinished_run_is_noted(run_and_truth, tmp_path):
+    dataset, gt, est = run_and_truth
+    run = tmp_path / "run"
+    write_h5(run / "S1" / "Walking_1.h5", gt.frames[:4], est)  # attrs lack complete=True
+    seqs = evaluate_files(run, dataset)
+    assert "unfinished run" in format_table(seqs, 100.0)

@@ -164,6 +164,10 @@ class _VideoStream:
     def _convert(self, image: np.ndarray, index: int) -> np.ndarray:
         if image is None:
             raise InputError(self.path, f"cannot decode frame {index + 1}")
+        if image.dtype != np.uint8:
+            raise InputError(self.path, f"frame {index + 1} is {image.dtype}, 8-bit images expected")
+        if image.ndim == 3 and image.shape[2] == 4:  # PNG with alpha: the alpha is not a mask here
+            image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
         if self.gray and image.ndim == 3:
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         elif not self.gray and image.ndim == 2:

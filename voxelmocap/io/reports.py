@@ -52,26 +52,31 @@ class EvaluatedSequence:
     scores: SequenceScores
     per_frame: dict
     est_enabled: np.ndarray | None = None  #: (F, 20)
+    complete: bool | None = None  #: for tracking results: whether the run finished
 
 
-def read_poses(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(frames (F,), endpoints (F, 20, 3), enabled (F, 20))`` of a result ``.h5`` or ``.xml``."""
+def read_poses(path):
+    """``(frames (F,), endpoints (F, 20, 3), enabled (F, 20), complete)`` of a result file.
+
+    ``complete`` is whether a tracking result (``.h5``) finished, None for body_pose ``.xml``.
+    """
     path = Path(path)
     if path.suffix.lower() == ".h5":
         from .results import read_result
 
         res = read_result(path)
         endpoints = np.asarray(res.endpoints, float)
-        return np.asarray(res.frames, int), endpoints, np.ones(endpoints.shape[:2], bool)
+        return (np.asarray(res.frames, int), endpoints, np.ones(endpoints.shape[:2], bool),
+                bool(res.attrs.get("complete", False)))
     seq = read_body_pose_xml(path)
     if seq.endpoints.shape[-1] != 3:
         raise InputError(path, "holds 2-D poses; 3-D endpoints are needed")
-    return seq.frames, seq.endpoints, seq.enabled
+    return seq.frames, seq.endpoints, seq.enabled, None
 
 
 def score_against(result_path, gt_path, *, delta: float, subject="", action="", trial=""):
     """Match a result with a ground-truth XML by frame number and score it."""
-    frames, est, est_enabled = read_poses(result_path)
+    frames, est, est_enabled, complete = read_poses(result_path)
     gt = read_body_pose_xml(gt_path)
     if gt.endpoints.shape[-1] != 3:
         raise InputError(gt_path, "ground truth holds 2-D poses")
@@ -84,7 +89,7 @@ def score_against(result_path, gt_path, *, delta: float, subject="", action="", 
                                           est_enabled=est_enabled[keep])
     return EvaluatedSequence(subject, action, trial, Path(result_path), frames[keep], est[keep],
                              gt.endpoints[rows[keep]], gt.enabled[rows[keep]],
-                             int((~keep).sum()), scores, per_frame, est_enabled[keep])
+                             int((~keep).sum()), scores, per_frame, est_enabled[keep], complete)
 
 
 def find_result_files(run_dir) -> list[Path]:
@@ -154,6 +159,10 @@ def format_table(sequences: list[EvaluatedSequence], delta: float) -> str:
     missing = sum(s.missing_gt for s in sequences)
     lines.append(f"δ = {delta:g} mm; {skipped} frame(s) skipped (ground truth disabled), "
                  f"{missing} result frame(s) without ground truth")
+    incomplete = [s for s in sequences if s.complete is False]
+    for s in incomplete:
+        lines.append(f"note: {s.result_path} is an unfinished run ({len(s.frames)} frames so far; "
+                     "'voxelmocap track --resume' continues it)")
     return "\n".join(lines)
 
 
