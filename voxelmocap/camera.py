@@ -334,7 +334,7 @@ class Camera:
             Missing or unreadable file, wrong number of values, text, NaN/inf, a non-orthonormal
             R, or a camera facing away from ``check_facing``.
         """
-        from .io._files import read_text_file
+        from .io._files import is_float, read_text_file
 
         path = Path(path)
         tokens = read_text_file(path, "calibration file", encoding="ascii").split()
@@ -343,7 +343,7 @@ class Camera:
         try:
             values = np.array([float(t) for t in tokens])
         except ValueError:
-            bad = next(t for t in tokens if not _is_float(t))
+            bad = next(t for t in tokens if not is_float(t))
             raise InputError(path, f"value {bad[:20]!r} is not a number") from None
         if not np.all(np.isfinite(values)):
             raise InputError(path, "contains NaN or infinite values")
@@ -371,14 +371,6 @@ class Camera:
         c = self.center
         return (f"Camera({self.name!r}, f=({self.fc[0]:.1f}, {self.fc[1]:.1f}), "
                 f"centre=({c[0]:.0f}, {c[1]:.0f}, {c[2]:.0f}) mm, size={self.size})")
-
-
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
 
 
 def _atomic_write_text(path: Path, text: str) -> None:

@@ -6,7 +6,16 @@ from pathlib import Path
 
 from ..errors import InputError
 
-__all__ = ["read_text_file"]
+__all__ = ["is_float", "read_text_file"]
+
+
+def is_float(token: str) -> bool:
+    """Whether ``float(token)`` succeeds (to name the first bad value in an error)."""
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
 
 
 def read_text_file(path, what: str, encoding: str = "utf-8") -> str:

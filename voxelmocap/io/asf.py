@@ -30,6 +30,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
+from ._files import read_text_file
 from .bvh import UNITS, BvhClip, _guess_scale
 
 __all__ = ["read_asf_amc"]
@@ -39,12 +40,7 @@ _ROOT = {"tx": "Xposition", "ty": "Yposition", "tz": "Zposition", **_ROT}
 
 
 def _read(path: Path) -> list[str]:
-    try:
-        return path.read_text(encoding="utf-8", errors="strict").splitlines()
-    except FileNotFoundError:
-        raise InputError(path, "file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read ({exc.__class__.__name__})") from None
+    return read_text_file(path, "file").splitlines()
 
 
 def _floats(tokens, path, lineno, n=None):

@@ -34,6 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 from ._atomic import atomic_write_text
+from ._files import is_float, read_text_file
 
 __all__ = ["UNITS", "YUP_TO_ZUP", "BvhClip", "read_bvh", "write_bvh"]
 
@@ -221,13 +222,7 @@ def read_bvh(path, *, unit: str | float = "auto") -> BvhClip:
         ``Frames:``.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8", errors="strict")
-    except FileNotFoundError:
-        raise InputError(path, "BVH file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read BVH file ({exc.__class__.__name__})") from None
-    lines = text.splitlines()
+    lines = read_text_file(path, "BVH file").splitlines()
     motion_line = next((i for i, ln in enumerate(lines) if ln.strip().upper() == "MOTION"), None)
     if motion_line is None:
         raise InputError(path, "no MOTION section (not a BVH file?)")
@@ -390,7 +385,7 @@ def _parse_motion(lines, motion_line, n_channels, path):
         try:
             row = np.array(parts, dtype=float)
         except ValueError:
-            bad = next(p for p in parts if not _is_float(p))
+            bad = next(p for p in parts if not is_float(p))
             raise InputError(path, f"line {k + 1}: value {bad[:20]!r} is not a number") from None
         if not np.all(np.isfinite(row)):
             raise InputError(path, f"line {k + 1}: non-finite value")
@@ -398,14 +393,6 @@ def _parse_motion(lines, motion_line, n_channels, path):
     if len(rows) != n_frames:
         raise InputError(path, f"Frames: {n_frames} declared but {len(rows)} motion rows found")
     return np.array(rows).reshape(n_frames, n_channels), frame_time
-
-
-def _is_float(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
 
 
 def _guess_scale(clip: BvhClip) -> float:
