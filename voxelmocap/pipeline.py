@@ -296,7 +296,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     from .body import fit_to_landmarks
     from .io.humaneva import Dataset
     from .io.results import TrackResult, read_result, write_result
-    from .likelihood import log_likelihood, part_scores
+    from .likelihood import log_likelihood, log_likelihood_from_scores, part_scores
 
     config = config or TrackConfig()
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
@@ -393,10 +393,12 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
             done["state"].append(est[0])
             done["landmarks"].append(model.landmarks(est)[0])
             done["endpoints"].append(model.endpoints(est)[0])
-            done["part_scores"].append(part_scores(measurement, model, est)[0])
+            scores = part_scores(measurement, model, est)[0]
+            done["part_scores"].append(scores)
             done["ess"].append(np.asarray(pf.layer_ess, dtype=float))
             done["betas"].append(np.asarray(pf.layer_betas, dtype=float))
-            done["log_likelihood"].append(float(ll(est)[0]))
+            done["log_likelihood"].append(
+                float(log_likelihood_from_scores(scores, variances=variances)))
             done["map_state"].append(np.asarray(pf.map_particle, dtype=float))
             done["seconds"].append(time.perf_counter() - t0)
             attrs = dict(meta, init_method=init_method,
