@@ -69,3 +69,37 @@ def test_bad_xml(tmp_path, body, message):
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="not found"):
         read_body_pose_xml(tmp_path / "none.xml")
+
+
+_DTD_BODIES = [
+    # A declaration after 8 KB of comment: a sniff of the first bytes would miss it.
+    '<?xml version="1.0"?>' + "<!--" + "x" * 8192 + "-->"
+    + '<!DOCTYPE l [<!ENTITY a "aaaa">]><SEQUENCE>&a;</SEQUENCE>',
+    # External entity (XXE).
+    '<?xml version="1.0"?><!DOCTYPE l [<!ENTITY e SYSTEM "file:///etc/passwd">]>'
+    "<SEQUENCE>&e;</SEQUENCE>",
+    # A DTD without entities is refused too: nothing in the format needs one.
+    '<?xml version="1.0"?><!DOCTYPE SEQUENCE SYSTEM "http://example.invalid/x.dtd"><SEQUENCE/>',
+]
+
+
+@pytest.mark.parametrize("encoding", ["utf-8", "utf-16"])
+@pytest.mark.parametrize("body", _DTD_BODIES)
+def test_dtd_refused_in_any_encoding_and_position(tmp_path, body, encoding):
+    path = tmp_path / "dtd.xml"
+    text = body if encoding == "utf-8" else body.replace('version="1.0"?>',
+                                                         'version="1.0" encoding="UTF-16"?>')
+    path.write_bytes(text.encode(encoding))
+    with pytest.raises(InputError, match="DTDs and entity declarations") as info:
+        read_body_pose_xml(path)
+    assert str(info.value).startswith(str(path))
+
+
+def test_writer_escapes_attributes_and_camera(tmp_path):
+    attrs = {"SubjectName": 'S1 "quoted" <&> \u00e9', "Trial": 2}
+    pts = np.arange(20 * 3, dtype=float).reshape(1, 20, 3)
+    write_body_pose_xml(tmp_path / "e.xml", [1], pts, attributes=attrs, camera="C<1>&")
+    seq = read_body_pose_xml(tmp_path / "e.xml")
+    assert seq.attributes == {"SubjectName": 'S1 "quoted" <&> \u00e9', "Trial": "2"}
+    assert seq.camera == "C<1>&"
+    np.testing.assert_allclose(seq.endpoints, pts, atol=1e-6)

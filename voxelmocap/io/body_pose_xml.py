@@ -7,8 +7,10 @@ for 3-D poses) and one ``Frame`` per pose: ``Number`` (the 1-based synchronised 
 :data:`voxelmocap.joints.ENDPOINT_NAMES`, and ``Error`` (a number or ``N/A``). See ``HUMANEVA.md`` §6.
 
 Unlike the toolkit's importer, :func:`read_body_pose_xml` accepts 2-D files (no ``Z``) and keeps the
-root attributes. Documents with a DTD or entity declarations are refused, so no entity is ever
-expanded (no "billion laughs", no external entities).
+root attributes. Parsing goes through ``defusedxml`` with DTDs forbidden, so a document with a DTD,
+an entity declaration or an external reference is refused whatever its encoding or where the
+declaration stands (no "billion laughs", no external entities). Writing builds an ElementTree, so
+every name and value is escaped by the standard library.
 """
 
 from __future__ import annotations
@@ -18,11 +20,13 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import defusedxml
+import defusedxml.ElementTree as SafeET
 import numpy as np
 
 from ..errors import InputError
 from ..joints import ENDPOINT_NAMES
-from ._atomic import atomic_write_text
+from ._atomic import atomic_write_bytes
 
 __all__ = ["BodyPoseSequence", "read_body_pose_xml", "write_body_pose_xml"]
 
@@ -105,12 +109,15 @@ def read_body_pose_xml(path) -> BodyPoseSequence:
         raise InputError(path, "XML file not found") from None
     except OSError as exc:
         raise InputError(path, f"cannot read XML file ({exc.__class__.__name__})") from None
-    head = raw[:4096].upper()
-    if b"<!DOCTYPE" in head or b"<!ENTITY" in raw.upper():
-        raise InputError(path, "DTDs and entity declarations are not accepted in body_pose XML")
     try:
-        root = ET.fromstring(raw)
+        root = SafeET.fromstring(raw, forbid_dtd=True, forbid_entities=True,
+                                 forbid_external=True)
+    except defusedxml.DefusedXmlException:
+        raise InputError(path, "DTDs and entity declarations are not accepted in body_pose XML") \
+            from None
     except ET.ParseError as exc:
+        raise InputError(path, f"malformed XML ({exc})") from None
+    except (ValueError, LookupError) as exc:  # e.g. an encoding the parser does not know
         raise InputError(path, f"malformed XML ({exc})") from None
     if root.tag != "SEQUENCE":
         raise InputError(path, f"root element is <{root.tag}>, expected <SEQUENCE>")
@@ -219,24 +226,20 @@ def write_body_pose_xml(path, frames, endpoints, enabled=None, *, attributes=Non
     enabled = np.asarray(enabled, dtype=bool).reshape(endpoints.shape[:2])
     dims = "XYZ"[: endpoints.shape[2]]
 
-    attrs = {str(k): str(v) for k, v in (attributes or {}).items()}
-    parts = ['<?xml version="1.0" encoding="UTF-8"?>']
-    attr_text = "".join(f' {k}="{_escape(v)}"' for k, v in attrs.items())
-    parts.append(f"<SEQUENCE{attr_text}>")
-    parts.append(f"<Camera>{_escape(camera) if camera else 'N/A'}</Camera>")
+    root = ET.Element("SEQUENCE", {str(k): str(v) for k, v in (attributes or {}).items()})
+    ET.SubElement(root, "Camera").text = str(camera) if camera else "N/A"
     for i, number in enumerate(frames):
-        parts.append(f"<Frame><Number>{int(number)}</Number><Pose>")
+        frame = ET.SubElement(root, "Frame")
+        ET.SubElement(frame, "Number").text = str(int(number))
+        pose = ET.SubElement(frame, "Pose")
         for j, name in enumerate(ENDPOINT_NAMES):
-            coords = "".join(f"<{d}>{endpoints[i, j, k]:f}</{d}>" for k, d in enumerate(dims))
-            parts.append(f"<Joint><Name>{name}</Name><Enabled>{int(enabled[i, j])}</Enabled>"
-                         f"{coords}</Joint>")
+            joint = ET.SubElement(pose, "Joint")
+            ET.SubElement(joint, "Name").text = name
+            ET.SubElement(joint, "Enabled").text = str(int(enabled[i, j]))
+            for k, d in enumerate(dims):
+                ET.SubElement(joint, d).text = f"{endpoints[i, j, k]:f}"
         err = None if errors is None else errors[i]
-        err_text = "N/A" if err is None or not np.isfinite(err) else f"{float(err):f}"
-        parts.append(f"</Pose><Error>{err_text}</Error></Frame>")
-    parts.append("</SEQUENCE>\n")
-    atomic_write_text(path, "\n".join(parts))
-
-
-def _escape(text: str) -> str:
-    return (str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-            .replace('"', "&quot;"))
+        ET.SubElement(frame, "Error").text = \
+            "N/A" if err is None or not np.isfinite(err) else f"{float(err):f}"
+    ET.indent(root, space="")
+    atomic_write_bytes(path, ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n")
