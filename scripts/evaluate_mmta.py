@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 from voxelmocap.errors import VoxelmocapError
+from voxelmocap.io._outputs import check_output_file
 from voxelmocap.io.body_pose_xml import read_body_pose_xml
 from voxelmocap.io.reports import format_table, report_json, score_against, write_json
 
@@ -34,6 +35,8 @@ def main(argv=None) -> int:
     if len(args.files) % 2:
         parser.error("files must come in RESULT GT pairs")
     try:
+        if args.json:
+            check_output_file(args.json)
         sequences = []
         for result, gt in zip(args.files[::2], args.files[1::2], strict=True):
             attrs = read_body_pose_xml(gt).attributes

@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,3 +96,69 @@ def test_unfinished_run_is_noted(run_and_truth, tmp_path):
     write_h5(run / "S1" / "Walking_1.h5", gt.frames[:4], est)  # attrs lack complete=True
     seqs = evaluate_files(run, dataset)
     assert "unfinished run" in format_table(seqs, 100.0)
+
+
+def _files_under(folder):
+    return sorted(p.relative_to(folder) for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize("bad", ["json", "csv", "plots"])
+def test_cli_checks_every_output_before_writing(run_and_truth, tmp_path, capsys, bad):
+    dataset, gt, est = run_and_truth
+    run = tmp_path / "run"
+    write_h5(run / "S1" / "Walking_1.h5", gt.frames[:4], est)
+    out = tmp_path / "report"
+    out.mkdir()
+    blocker = out / "a_file"
+    blocker.write_text("not a folder")
+    places = {"json": out / "r.json", "csv": out / "csv", "plots": out / "plots"}
+    places[bad] = blocker / "below"  # under a file: cannot be created, even by root
+    code = main(["evaluate", str(run), "--dataset", str(dataset), "--json", str(places["json"]),
+                 "--csv", str(places["csv"]), "--plots", str(places["plots"])])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and str(blocker) in err
+    assert _files_under(out) == [blocker.relative_to(out)]  # nothing written, nothing stray
+
+
+def test_json_is_strict_and_huge_coordinates_are_refused(run_and_truth, tmp_path):
+    dataset, gt, est = run_and_truth
+    text = (dataset / "S1" / "Mocap_Data" / "Walking_1.xml").read_text()
+    first_x = text.index("<X>") + 3
+    bad = tmp_path / "gt.xml"
+    bad.write_text(text[:first_x] + "1e308" + text[text.index("</X>", first_x):])
+    with pytest.raises(InputError, match="not a position") as info:
+        read_body_pose_xml(bad)
+    assert str(info.value).startswith(str(bad))
+    # A report with unbounded scores is still strict JSON: null, never Infinity or NaN.
+    run = tmp_path / "run"
+    write_h5(run / "S1" / "Walking_1.h5", gt.frames[:4], est)
+    seqs = evaluate_files(run, dataset)
+    import dataclasses
+
+    seqs[0].scores = dataclasses.replace(seqs[0].scores, mu_mm=float("inf"))
+    report = report_json(seqs, 100.0)
+    assert report["sequences"][0]["mu_mm"] is None
+
+
+def test_evaluate_mmta_script_unwritable_json(run_and_truth, tmp_path, capsys):
+    import runpy
+    import sys
+
+    dataset, gt, est = run_and_truth
+    result = tmp_path / "est.xml"
+    write_body_pose_xml(result, gt.frames[:4], est)
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    script = Path(__file__).resolve().parents[2] / "scripts" / "evaluate_mmta.py"
+    argv = sys.argv
+    sys.argv = [str(script), str(result), str(dataset / "S1" / "Mocap_Data" / "Walking_1.xml"),
+                "--json", str(blocker / "r.json")]
+    try:
+        with pytest.raises(SystemExit) as info:
+            runpy.run_path(str(script), run_name="__main__")
+    finally:
+        sys.argv = argv
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and str(blocker) in err

@@ -25,10 +25,18 @@ def add_parser(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
+    from ..io._outputs import check_output_dir, check_output_file
     from ..io.reports import evaluate_files, format_table, report_json, write_csvs, write_json
 
     if not args.delta > 0:
         raise InputError("--delta", f"must be positive, got {args.delta}")
+    # Every output is checked before anything is computed or written: a bad --plots must not
+    # leave the JSON and CSV of a failed command behind.
+    if args.json:
+        check_output_file(args.json)
+    for folder in (args.csv, args.plots):
+        if folder:
+            check_output_dir(folder)
     sequences = evaluate_files(args.run_dir, args.dataset, delta=args.delta)
     print(format_table(sequences, args.delta))
     if args.json:

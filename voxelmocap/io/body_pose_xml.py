@@ -28,7 +28,11 @@ from ..errors import InputError
 from ..joints import ENDPOINT_NAMES
 from ._atomic import atomic_write_bytes
 
-__all__ = ["BodyPoseSequence", "read_body_pose_xml", "write_body_pose_xml"]
+__all__ = ["MAX_COORDINATE", "BodyPoseSequence", "read_body_pose_xml", "write_body_pose_xml"]
+
+#: Largest accepted coordinate (10 km in mm, or 10 million pixels). Larger values are corrupt
+#: data, and squaring them in the error measures overflows to infinity.
+MAX_COORDINATE = 1e7
 
 
 @dataclass
@@ -81,6 +85,9 @@ def _number(text: str, path, where: str) -> float:
         raise InputError(path, f"{where}: {text[:30]!r} is not a number") from None
     if not math.isfinite(value):
         raise InputError(path, f"{where}: value {text!r} is not finite")
+    if abs(value) > MAX_COORDINATE:
+        raise InputError(path, f"{where}: value {text[:30]} is beyond ±{MAX_COORDINATE:g} "
+                               "(mm or pixels): not a position")
     return value
 
 

@@ -167,7 +167,8 @@ def format_table(sequences: list[EvaluatedSequence], delta: float) -> str:
 
 
 def _clean(value):
-    if isinstance(value, float) and math.isnan(value):
+    # JSON has no NaN or infinity; a missing or unbounded score is null.
+    if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
 
@@ -189,7 +190,13 @@ def report_json(sequences: list[EvaluatedSequence], delta: float) -> dict:
 
 
 def write_json(path, report: dict) -> None:
-    atomic_write_text(Path(path), json.dumps(report, indent=2) + "\n")
+    """Write a report as strict JSON (no ``NaN``/``Infinity`` tokens), atomically."""
+    path = Path(path)
+    text = json.dumps(report, indent=2, allow_nan=False) + "\n"
+    try:
+        atomic_write_text(path, text)
+    except OSError as exc:
+        raise InputError(path, f"cannot write the JSON report ({exc.strerror or exc})") from None
 
 
 def write_csvs(out_dir, sequences: list[EvaluatedSequence]) -> tuple[Path, Path]:
@@ -211,8 +218,11 @@ def write_csvs(out_dir, sequences: list[EvaluatedSequence]) -> tuple[Path, Path]
                 jw.writerow([s.subject, s.action, s.trial, int(frame), name,
                              _num(pf["landmark_errors"][i, j])])
     frame_path, joint_path = out_dir / "per_frame.csv", out_dir / "per_joint.csv"
-    atomic_write_text(frame_path, frame_buf.getvalue())
-    atomic_write_text(joint_path, joint_buf.getvalue())
+    try:
+        atomic_write_text(frame_path, frame_buf.getvalue())
+        atomic_write_text(joint_path, joint_buf.getvalue())
+    except OSError as exc:
+        raise InputError(out_dir, f"cannot write the CSV files ({exc.strerror or exc})") from None
     return frame_path, joint_path
 
 
