@@ -44,10 +44,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Options whose value may start with "-" (a frame range such as ``-5:3``): argparse would take
+#: the value for an option and print its usage instead of the range's own error.
+_DASH_VALUE_OPTIONS = ("--frames",)
+
+
+def _join_dash_values(argv: list[str]) -> list[str]:
+    """``["--frames", "-5:3"]`` → ``["--frames=-5:3"]``, so the value reaches its validator."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        arg = argv[i]
+        if arg in _DASH_VALUE_OPTIONS and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and argv[i + 1][1:2].isdigit():
+            out.append(f"{arg}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(arg)
+        i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``voxelmocap`` console script; returns the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_join_dash_values(list(sys.argv[1:] if argv is None else argv)))
     if not getattr(args, "command", None):
         parser.print_help()
         return 0

@@ -134,3 +134,13 @@ def test_image_folder_gap_is_an_error_not_a_shift(tmp_path):
     assert decode_frame_number(seq.read_frame(4)["C2"]) == 11
     with pytest.raises(InputError, match="no image file with counter 10"):
         seq.read_frame(3)
+
+
+def test_negative_frame_range_gets_its_own_message(tiny_dataset, tmp_path, capsys):
+    code = main(["track", str(tiny_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                 "--frames", "-5:3", "--out", str(tmp_path / "run"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.strip().splitlines() == [err.strip()]  # one line, no argparse usage
+    assert "frame -5 is outside the available frames" in err
+    assert not (tmp_path / "run").exists() or not any((tmp_path / "run").rglob("*.h5"))
