@@ -14,7 +14,9 @@ MOCAP_DIR = TESTS.parent.parent / "shared" / "mocap"
 @pytest.fixture
 def mocap_dir() -> Path:
     if not MOCAP_DIR.is_dir():
-        pytest.skip("../shared/mocap is not available")
+        pytest.skip("real motion-capture clips not available (the CMU / Bandai Namco BVH files the "
+                    "project develops with, expected in ../shared/mocap beside the checkout; "
+                    "not shipped)")
     return MOCAP_DIR
 
 

@@ -97,7 +97,9 @@ def test_rewrite_matches_direct_acclaim_kinematics(tmp_path):
 def test_shared_cmu_clip():
     asf, amc = MOCAP / "11.asf", MOCAP / "11_01.amc"
     if not asf.exists():
-        pytest.skip("shared mocap clips not available")
+        pytest.skip("real motion-capture clips not available (the CMU / Bandai Namco BVH files the "
+                    "project develops with, expected in ../shared/mocap beside the checkout; "
+                    "not shipped)")
     clip = read_asf_amc(asf, amc)
     assert clip.n_frames == 597 and clip.fps == 120
     assert clip.scale == pytest.approx(56.444, abs=0.01)

@@ -26,7 +26,9 @@ CLIPS = {
 def test_shared_clips_parse_with_readme_counts(name):
     path = MOCAP / name
     if not path.exists():
-        pytest.skip("shared mocap clips not available")
+        pytest.skip("real motion-capture clips not available (the CMU / Bandai Namco BVH files the "
+                    "project develops with, expected in ../shared/mocap beside the checkout; "
+                    "not shipped)")
     frames, fps, unit = CLIPS[name]
     clip = read_bvh(path)
     assert clip.n_frames == frames

@@ -30,7 +30,9 @@ BONES = [("l_shoulder", "l_elbow"), ("l_elbow", "l_wrist"), ("r_hip", "r_knee"),
 def _clip(name):
     path = MOCAP / name
     if not path.exists():
-        pytest.skip("shared mocap clips not available")
+        pytest.skip("real motion-capture clips not available (the CMU / Bandai Namco BVH files the "
+                    "project develops with, expected in ../shared/mocap beside the checkout; "
+                    "not shipped)")
     return read_bvh(path)
 
 

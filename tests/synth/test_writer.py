@@ -173,7 +173,9 @@ def test_bad_input_is_one_input_error_and_writes_nothing(tmp_path, case):
 def test_clip_too_short_for_the_frames(tmp_path):
     path = MOCAP / "02_03.bvh"
     if not path.exists():
-        pytest.skip("shared mocap clips not available")
+        pytest.skip("real motion-capture clips not available (the CMU / Bandai Namco BVH files the "
+                    "project develops with, expected in ../shared/mocap beside the checkout; "
+                    "not shipped)")
     with pytest.raises(InputError, match="supplies at most"):
         generate(tmp_path / "out", motion=str(path), frames=1000, cameras=["C1"], progress=False)
     assert _nothing_written(tmp_path / "out")
@@ -217,7 +219,9 @@ def test_command_exit_codes(tmp_path, capsys):
 def test_bvh_clip_renders_with_its_truth_on_the_person(tmp_path):
     path = MOCAP / "dataset-1_punch_normal_002.bvh"
     if not path.exists():
-        pytest.skip("shared mocap clips not available")
+        pytest.skip("real motion-capture clips not available (the CMU / Bandai Namco BVH files the "
+                    "project develops with, expected in ../shared/mocap beside the checkout; "
+                    "not shipped)")
     root = generate(tmp_path / "d", motion=str(path), frames=4, cameras=["C1", "BW2"],
                     action="Box", codec="FFV1", render_masks=True, background_frames=3,
                     progress=False)
