@@ -55,12 +55,33 @@ def scene():
     return rig, grid, backgrounds, images, truth
 
 
+def _surface_by_neighbours(occ):
+    """V^S by definition: occupied with an empty 6-neighbour, outside the grid empty."""
+    pad = np.pad(occ, 1)
+    c = pad[1:-1, 1:-1, 1:-1]
+    full = (pad[:-2, 1:-1, 1:-1] & pad[2:, 1:-1, 1:-1] & pad[1:-1, :-2, 1:-1]
+            & pad[1:-1, 2:, 1:-1] & pad[1:-1, 1:-1, :-2] & pad[1:-1, 1:-1, 2:])
+    return c & ~full
+
+
+def _smoothed_whole_grid(surface, sigma):
+    """Ṽ^S by definition on the whole grid (no bounding box): Gaussian / centre weight, ≤ 1."""
+    radius = int(4.0 * sigma + 0.5)
+    g0 = 1.0 / np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2).sum()
+    out = ndimage.gaussian_filter(surface.astype(np.float32), sigma, mode="constant") / g0
+    out = np.clip(out, 0.0, 1.0).astype(np.float32)
+    out[surface] = 1.0
+    return out
+
+
 def test_stage_recovers_masks_and_hull(scene):
     rig, grid, bg_frames, images, truth = scene
     cfg = SilhouetteConfig()
+    sigma = 1.5  # not the default, so that a stage ignoring its sigma fails
     stage = MeasurementStage(rig, grid, build_backgrounds(cfg, rig.names, bg_frames), cfg,
-                             sigma=1.0)
-    masks, occ = stage.process(images)
+                             sigma=sigma)
+    obs = stage.measure(images)
+    masks, occ = obs.masks, obs.occupancy
     true_masks = np.array([truth[n] for n in rig.names])
     assert masks.shape == true_masks.shape
     for m, t in zip(masks, true_masks, strict=True):
@@ -69,11 +90,38 @@ def test_stage_recovers_masks_and_hull(scene):
     ref = Carver(rig, grid).carve(true_masks)
     iou = np.sum(occ & ref) / np.sum(occ | ref)
     assert iou > 0.95, iou
-    m = stage.measure(images)
-    assert np.array_equal(m.occupancy, occ) and np.array_equal(m.masks, masks)
-    assert np.array_equal(m.surface, surface_voxels(occ))
-    np.testing.assert_array_equal(m.smoothed, smooth_surface(m.surface, 1.0))
-    assert set(m.timings) == {"subtract", "carve", "surface", "smooth"}
+    # the occupancy is what its own masks carve into; surface and smoothing follow the definitions
+    assert np.array_equal(occ, Carver(rig, grid).carve(masks))
+    assert obs.surface.sum() > 100 and obs.surface.sum() < occ.sum()
+    assert np.array_equal(obs.surface, _surface_by_neighbours(occ))
+    np.testing.assert_allclose(obs.smoothed, _smoothed_whole_grid(obs.surface, sigma), atol=1e-6)
+    # 1 on the surface, ~exp(-d²/2σ²) one voxel off it, decaying to 0 far away
+    assert np.all(obs.smoothed[obs.surface] == 1.0) and obs.smoothed.min() == 0.0
+    assert set(obs.timings) == {"subtract", "carve", "surface", "smooth"}
+    assert not obs.empty and obs.excluded == {}
+
+
+def test_observation_equals_the_old_two_paths(scene):
+    """The stage's one observation holds exactly what dump (surface, smoothed) and track (the
+    likelihood's quantised values and prefix sums) used to compute separately."""
+    rig, grid, bg_frames, images, _ = scene
+    cfg = SilhouetteConfig()
+    stage = MeasurementStage(rig, grid, build_backgrounds(cfg, rig.names, bg_frames), cfg,
+                             sigma=1.3)
+    obs = stage.measure(images)
+    occ = Carver(rig, grid).carve(stage.masks(images))
+    surf = surface_voxels(occ)
+    smooth = smooth_surface(surf, 1.3)
+    q = np.rint(smooth.astype(np.float64) * 65535).astype(np.int32)
+    nx, ny, nz = grid.shape
+    prefix = np.zeros((nx, ny, nz + 1, 3), dtype=np.int32)
+    np.cumsum(np.ones(grid.shape, bool), axis=2, out=prefix[:, :, 1:, 0])
+    np.cumsum(occ, axis=2, out=prefix[:, :, 1:, 1])
+    np.cumsum(q, axis=2, out=prefix[:, :, 1:, 2])
+    assert np.array_equal(obs.occupancy, occ) and np.array_equal(obs.surface, surf)
+    assert obs.smoothed.dtype == np.float32 and np.array_equal(obs.smoothed, smooth)
+    assert np.array_equal(obs.smoothed_q, q) and np.array_equal(obs.prefix, prefix)
+    assert obs.prefix.dtype == np.int32 and obs.prefix[..., -1, 2].max() > 0
 
 
 def test_stage_bad_input(scene):
@@ -82,9 +130,41 @@ def test_stage_bad_input(scene):
     models = build_backgrounds(cfg, rig.names, bg_frames)
     with pytest.raises(InputError, match="no background model for camera"):
         MeasurementStage(rig, grid, {k: v for k, v in models.items() if k != "C2"}, cfg)
+    with pytest.raises(InputError, match="min_views"):
+        MeasurementStage(rig, grid, models, cfg, min_views=len(rig) + 1)
     stage = MeasurementStage(rig, grid, models, cfg)
     with pytest.raises(InputError, match="no image for camera"):
-        stage.process({k: v for k, v in images.items() if k != "BW3"})
+        stage.measure({k: v for k, v in images.items() if k != "BW3"})
     small = dict(images, C1=images["C1"][:100])
     with pytest.raises(InputError, match="image of C1 is 640x100"):
-        stage.process(small)
+        stage.measure(small)
+
+
+@pytest.mark.parametrize("min_views", [None, 3])
+@pytest.mark.parametrize("broken", ["black", "white"])
+def test_camera_without_picture_is_left_out(scene, min_views, broken):
+    """A black frame (all foreground against this background) or a blown-out one: that camera is
+    named and the occupancy is exactly the carving of the other cameras alone."""
+    rig, grid, bg_frames, images, _ = scene
+    cfg = SilhouetteConfig()
+    stage = MeasurementStage(rig, grid, build_backgrounds(cfg, rig.names, bg_frames), cfg,
+                             min_views=min_views)
+    bad = dict(images, C2=np.full_like(images["C2"], 0 if broken == "black" else 255))
+    obs = stage.measure(bad)
+    assert list(obs.excluded) == ["C2"]
+    assert ("black" in obs.excluded["C2"]) == (broken == "black")
+    others = [i for i, n in enumerate(rig.names) if n != "C2"]
+    ref = Carver([rig[i] for i in others], grid).carve(obs.masks[others], min_views=min_views)
+    assert ref.any() and np.array_equal(obs.occupancy, ref)
+    if min_views is not None:  # there the broken camera's full mask would have voted everywhere
+        assert not np.array_equal(obs.occupancy, Carver(rig, grid).carve(obs.masks,
+                                                                        min_views=min_views))
+
+
+def test_no_person_in_view_is_an_empty_observation_without_warning(scene):
+    rig, grid, bg_frames, _, _ = scene
+    cfg = SilhouetteConfig()
+    stage = MeasurementStage(rig, grid, build_backgrounds(cfg, rig.names, bg_frames), cfg)
+    obs = stage.measure({n: frames[0] for n, frames in bg_frames.items()})  # warnings are errors
+    assert obs.empty and not obs.occupancy.any() and not obs.surface.any()
+    assert obs.excluded == {}

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from . import __version__
@@ -67,6 +68,9 @@ def _join_dash_values(argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``voxelmocap`` console script; returns the exit code."""
+    # FFmpeg's own messages ("[mjpeg @ 0x…] overread 8") would precede our one-line errors; OpenCV
+    # reads this when it first opens a video. A user's own setting wins (e.g. to debug a codec).
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
     parser = build_parser()
     args = parser.parse_args(_join_dash_values(list(sys.argv[1:] if argv is None else argv)))
     if not getattr(args, "command", None):

@@ -17,8 +17,10 @@ Voxels and membership. Voxels are the grid's lattice extended without bound, so 
 leaves the grid keeps all its voxels and the ones outside count as Out. A voxel belongs to a part
 when its centre is inside the cone (see :mod:`voxelmocap.body.shapes`), decided by
 :func:`_inside_reference` / ``_raster_kernels._inside`` with the same floating-point operations.
-``Ṽ^S`` is quantised to integers ``round(Ṽ^S · 65535)`` once per frame, so that every sum is an
-exact integer and the two implementations agree bit for bit.
+The frame is a :class:`~voxelmocap.observation.VoxelObservation` (``V^R``, ``V^S``, ``Ṽ^S`` and
+their prefix sums, built once by the measurement stage); ``Ṽ^S`` is quantised to integers
+``round(Ṽ^S · 65535)`` there, so that every sum is an exact integer and the two implementations
+agree bit for bit.
 
 Two implementations: :func:`part_counts` (numba, per-column runs with prefix sums, parallel over
 particles; ``DESIGN.md`` §4) and :func:`part_counts_reference` (numpy, per voxel). Both return
@@ -40,7 +42,7 @@ is 6 %, 2–4 %, 1 % and below 1 %. See ``docs/body_model.md``.
 >>> model = BodyModel()
 >>> grid = VoxelGrid((-1000.0, -1000.0, 0.0), 40.0, (50, 50, 50))
 >>> x = model.default_state()[None]
->>> m = Measurement(rasterise(model, x, grid) > 0, grid)
+>>> m = VoxelObservation(rasterise(model, x, grid) > 0, grid)
 >>> float(part_scores(m, model, x)[0, :, 2].max())   # every part fully occupied
 0.0
 """
@@ -52,13 +54,14 @@ import numpy as np
 from . import _raster_kernels as _k
 from .errors import InputError
 from .grid import VoxelGrid
-from .surface import smooth_surface, surface_voxels
+from .observation import QMAX, VoxelObservation
 
 __all__ = [
     "DEFAULT_VARIANCES",
     "QMAX",
     "SCORE_NAMES",
     "Measurement",
+    "VoxelObservation",
     "log_likelihood",
     "log_likelihood_from_scores",
     "part_counts",
@@ -74,84 +77,13 @@ __all__ = [
 SCORE_NAMES: tuple[str, ...] = ("out", "do", "empty", "surf")
 #: Paper 002's variances (σ²_Out, σ²_DO, σ²_Empty, σ²_Surf).
 DEFAULT_VARIANCES: tuple[float, float, float, float] = (0.01, 0.01, 0.1, 0.1)
-#: Quantised value of Ṽ^S = 1.
-QMAX = 65535
 #: Names of the integer counts of :func:`part_counts`, last axis.
 COUNT_NAMES: tuple[str, ...] = ("voxels", "out", "do", "occ", "surface_voxels", "surf_sum")
 
 
-class Measurement:
-    """The data of one frame: ``V^R``, ``V^S``, ``Ṽ^S`` and the analysed scene.
-
-    Parameters
-    ----------
-    occupancy : (nx, ny, nz) array_like of bool
-        Voxel reconstruction ``V^R`` on ``grid``.
-    grid : VoxelGrid
-        The grid of ``occupancy``.
-    sigma : float
-        Standard deviation (voxels) of the Gaussian that smooths the surface into ``Ṽ^S``.
-    scene : (nx, ny, nz) array_like of bool, optional
-        The analysed scene; default the whole grid. Occupancy outside the scene is ignored.
-
-    Attributes
-    ----------
-    grid : VoxelGrid
-    occupancy, surface, scene : (nx, ny, nz) bool ndarray
-        ``V^R`` (restricted to the scene), ``V^S`` and the scene mask.
-    smoothed : (nx, ny, nz) float32 ndarray
-        ``Ṽ^S`` in [0, 1], 0 outside the scene.
-    smoothed_q : (nx, ny, nz) int32 ndarray
-        ``round(Ṽ^S · QMAX)``, the values both likelihood implementations use.
-    prefix : (nx, ny, nz + 1, 3) int32 ndarray
-        Prefix sums along z of ``scene``, ``occupancy`` and ``smoothed_q``.
-    """
-
-    def __init__(self, occupancy, grid: VoxelGrid, *, sigma: float = 1.0, scene=None):
-        if not isinstance(grid, VoxelGrid):
-            raise InputError("grid", f"expected a VoxelGrid, got {type(grid).__name__}")
-        occ = np.asarray(occupancy)
-        if occ.shape != grid.shape:
-            raise InputError("occupancy", f"shape {occ.shape} does not match the grid {grid.shape}")
-        if occ.dtype != bool:
-            if occ.dtype.kind == "f" and not np.all(np.isfinite(occ)):
-                raise InputError("occupancy", "contains NaN or infinite values")
-            occ = occ != 0
-        try:
-            sigma = float(sigma)
-        except (TypeError, ValueError):
-            raise InputError("sigma", f"must be a number, got {sigma!r}") from None
-        if not (np.isfinite(sigma) and sigma > 0):
-            raise InputError("sigma", f"must be a positive number of voxels, got {sigma!r}")
-        if scene is None:
-            scene_mask = np.ones(grid.shape, dtype=bool)
-        else:
-            scene_mask = np.asarray(scene)
-            if scene_mask.shape != grid.shape:
-                raise InputError("scene", f"shape {scene_mask.shape} does not match the grid "
-                                          f"{grid.shape}")
-            scene_mask = scene_mask.astype(bool)
-        if grid.shape[2] * QMAX >= 2**31:
-            raise InputError("grid", f"too many layers ({grid.shape[2]}) for int32 prefix sums")
-        self.grid = grid
-        self.sigma = sigma
-        self.scene = scene_mask
-        self.occupancy = occ & scene_mask
-        self.surface = surface_voxels(self.occupancy)
-        smoothed = smooth_surface(self.surface, sigma)
-        smoothed[~scene_mask] = 0.0
-        self.smoothed = smoothed
-        self.smoothed_q = np.rint(smoothed.astype(np.float64) * QMAX).astype(np.int32)
-        nx, ny, nz = grid.shape
-        prefix = np.zeros((nx, ny, nz + 1, 3), dtype=np.int32)
-        np.cumsum(scene_mask, axis=2, out=prefix[:, :, 1:, 0])
-        np.cumsum(self.occupancy, axis=2, out=prefix[:, :, 1:, 1])
-        np.cumsum(self.smoothed_q, axis=2, out=prefix[:, :, 1:, 2])
-        self.prefix = prefix
-
-    def __repr__(self) -> str:
-        return (f"Measurement(grid shape {self.grid.shape}, {self.grid.voxel_size:g} mm, "
-                f"{int(self.occupancy.sum())} occupied voxels)")
+#: The measured frame the likelihood scores poses against (the name before the observation type
+#: had its own module; kept because scripts and tests use it).
+Measurement = VoxelObservation
 
 
 # --------------------------------------------------------------------------------- fast route
@@ -159,12 +91,12 @@ def _geometry(model, states, clip):
     return model.geometry(states, legal=True, clip=clip)
 
 
-def part_counts(measurement: Measurement, model, states, *, clip: bool = False) -> np.ndarray:
+def part_counts(observation: VoxelObservation, model, states, *, clip: bool = False) -> np.ndarray:
     """Integer counts per particle and part (fast numba kernel).
 
     Parameters
     ----------
-    measurement : Measurement
+    observation : VoxelObservation
     model : BodyModel
     states : (P, 27) array_like
         Legal states (mm, rad).
@@ -176,13 +108,14 @@ def part_counts(measurement: Measurement, model, states, *, clip: bool = False) 
     (P, n_parts, 6) int64 ndarray
         ``|Y|``, Out, DO, Occ, ``|Y^S|`` and ``Σ_{Y^S} (QMAX − Ṽq)`` (see :data:`COUNT_NAMES`).
     """
-    if not isinstance(measurement, Measurement):
-        raise InputError("measurement", f"expected a Measurement, got {type(measurement).__name__}")
+    if not isinstance(observation, VoxelObservation):
+        raise InputError("observation",
+                         f"expected a VoxelObservation, got {type(observation).__name__}")
     geo = _geometry(model, states, clip)
-    g = measurement.grid
+    g = observation.grid
     counts = np.zeros((geo.n_particles, len(model.parts), _k.N_COUNTS), dtype=np.int64)
     _k.part_counts(geo.base, geo.axis, geo.u1, geo.u2, geo.shape, *g.origin, g.voxel_size,
-                   measurement.prefix, QMAX, _k.default_chunks(), counts)
+                   observation.prefix, QMAX, _k.default_chunks(), counts)
     return counts
 
 
@@ -201,12 +134,12 @@ def scores_from_counts(counts) -> np.ndarray:
     return scores
 
 
-def part_scores(measurement: Measurement, model, states, *, clip: bool = False) -> np.ndarray:
+def part_scores(observation: VoxelObservation, model, states, *, clip: bool = False) -> np.ndarray:
     """Scores of every part of every particle (fast kernel).
 
     Parameters
     ----------
-    measurement : Measurement
+    observation : VoxelObservation
     model : BodyModel
     states : (P, 27) array_like
         Legal states (mm, rad); NaN and out-of-range raise :class:`InputError` (or ``clip``).
@@ -218,7 +151,7 @@ def part_scores(measurement: Measurement, model, states, *, clip: bool = False) 
     (P, n_parts, 4) float64 ndarray
         ρ_Out, ρ_DO, ρ_Empty, ρ_Surf (:data:`SCORE_NAMES`) per part in ``model.part_names`` order.
     """
-    return scores_from_counts(part_counts(measurement, model, states, clip=clip))
+    return scores_from_counts(part_counts(observation, model, states, clip=clip))
 
 
 def log_likelihood_from_scores(scores, *, variances=DEFAULT_VARIANCES) -> np.ndarray:
@@ -230,13 +163,13 @@ def log_likelihood_from_scores(scores, *, variances=DEFAULT_VARIANCES) -> np.nda
     return -0.5 * np.einsum("...pt,t->...", scores * scores, 1.0 / var)
 
 
-def log_likelihood(measurement: Measurement, model, states, *, variances=DEFAULT_VARIANCES,
+def log_likelihood(observation: VoxelObservation, model, states, *, variances=DEFAULT_VARIANCES,
                    clip: bool = False) -> np.ndarray:
     """Log-likelihood (up to a constant) of each particle, paper 002 eqs 7–9.
 
     Parameters
     ----------
-    measurement : Measurement
+    observation : VoxelObservation
     model : BodyModel
     states : (P, 27) array_like
         Legal states (mm, rad).
@@ -250,7 +183,7 @@ def log_likelihood(measurement: Measurement, model, states, *, variances=DEFAULT
     (P,) float64 ndarray
         ``−½ Σ_Y dᵀ Σ⁻¹ d`` (≤ 0; 0 is a perfect fit).
     """
-    scores = part_scores(measurement, model, states, clip=clip)
+    scores = part_scores(observation, model, states, clip=clip)
     return log_likelihood_from_scores(scores, variances=variances)
 
 
@@ -332,11 +265,11 @@ def _gather(volume, lo, shape, fill):
     return out
 
 
-def part_counts_reference(measurement: Measurement, model, states, *,
+def part_counts_reference(observation: VoxelObservation, model, states, *,
                           clip: bool = False) -> np.ndarray:
     """Plain per-voxel reference of :func:`part_counts` (numpy; slow, for tests)."""
     geo = _geometry(model, states, clip)
-    grid = measurement.grid
+    grid = observation.grid
     n_parts = len(model.parts)
     counts = np.zeros((geo.n_particles, n_parts, _k.N_COUNTS), dtype=np.int64)
     for p in range(geo.n_particles):
@@ -350,9 +283,9 @@ def part_counts_reference(measurement: Measurement, model, states, *,
         for q, (lo, m) in enumerate(masks):
             a = lo - ulo
             cnt = union[a[0]:a[0] + m.shape[0], a[1]:a[1] + m.shape[1], a[2]:a[2] + m.shape[2]]
-            scene = _gather(measurement.scene, lo, m.shape, False)
-            occ = _gather(measurement.occupancy, lo, m.shape, False)
-            vq = _gather(measurement.smoothed_q, lo, m.shape, 0).astype(np.int64)
+            scene = _gather(observation.scene, lo, m.shape, False)
+            occ = _gather(observation.occupancy, lo, m.shape, False)
+            vq = _gather(observation.smoothed_q, lo, m.shape, 0).astype(np.int64)
             pad = np.pad(m, 1)
             interior = (m & pad[:-2, 1:-1, 1:-1] & pad[2:, 1:-1, 1:-1] & pad[1:-1, :-2, 1:-1]
                         & pad[1:-1, 2:, 1:-1] & pad[1:-1, 1:-1, :-2] & pad[1:-1, 1:-1, 2:])
@@ -362,10 +295,10 @@ def part_counts_reference(measurement: Measurement, model, states, *,
     return counts
 
 
-def part_scores_reference(measurement: Measurement, model, states, *,
+def part_scores_reference(observation: VoxelObservation, model, states, *,
                           clip: bool = False) -> np.ndarray:
     """Plain per-voxel reference of :func:`part_scores` (numpy; slow, for tests)."""
-    return scores_from_counts(part_counts_reference(measurement, model, states, clip=clip))
+    return scores_from_counts(part_counts_reference(observation, model, states, clip=clip))
 
 
 def rasterise_reference(model, state, grid: VoxelGrid) -> np.ndarray:

@@ -1,55 +1,71 @@
-"""The measurement stage, frame by frame: images → silhouettes → occupancy → surface maps.
+"""The measurement stage, frame by frame: images → silhouettes → occupancy → one observation.
 
 :class:`MeasurementStage` ties the background models (:mod:`voxelmocap.silhouette`), a
-:class:`~voxelmocap.carving.Carver` and the surface maps (:mod:`voxelmocap.surface`) together for one
-rig and grid. It never touches files: the caller decodes the frames (e.g. with
-:class:`voxelmocap.io.humaneva.Sequence`) and hands over ``{camera name: image}``.
+:class:`~voxelmocap.carving.Carver` and the surface maps together for one rig and grid, and returns
+one :class:`~voxelmocap.observation.VoxelObservation` per frame: the silhouettes, ``V^R``, ``V^S``,
+``Ṽ^S`` and the likelihood's prefix sums, computed once and shared by ``dump`` and ``track``. It never
+touches files: the caller decodes the frames (e.g. with :class:`voxelmocap.io.humaneva.Sequence`)
+and hands over ``{camera name: image}``; :class:`voxelmocap.measurement_runner.MeasurementRunner`
+builds a stage from a sequence on disk.
+
+Cameras that carry no picture. A camera whose frame is (nearly) all black, or whose silhouette
+covers (nearly) the whole image (a black frame against a lit background, lights switched off, a
+moved camera), says nothing about where the person is. Left in, it would stop constraining the
+carving (every voxel it sees is "inside" its silhouette) or, under ``min_views``, vote for every
+voxel. The stage leaves such a camera out of that frame's carving and names it in
+:attr:`VoxelObservation.excluded <voxelmocap.observation.VoxelObservation>`; the runner says so.
 
 >>> stage = MeasurementStage(rig, grid, backgrounds, SilhouetteConfig())   # doctest: +SKIP
->>> masks, occupancy = stage.process(images)                              # doctest: +SKIP
->>> m = stage.measure(images)        # masks, occupancy, surface, smoothed, timings  # doctest: +SKIP
+>>> obs = stage.measure(images)   # masks, occupancy, surface, smoothed, timings   # doctest: +SKIP
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from .carving import Carver
 from .errors import InputError
 from .grid import VoxelGrid
+from .observation import VoxelObservation
 from .silhouette import SilhouetteConfig, segment
-from .surface import smooth_surface, surface_voxels
 
-__all__ = ["FrameMeasurement", "MeasurementStage"]
+__all__ = ["BLACK_LEVEL", "BLACK_SHARE", "FULL_SHARE", "MeasurementStage", "VoxelObservation",
+           "unusable_reason"]
+
+#: A pixel value at or below this (of 255) is black: sensor noise of a capped lens stays under it.
+BLACK_LEVEL = 16
+#: A frame is black when at most this share of its pixel values is above :data:`BLACK_LEVEL`.
+BLACK_SHARE = 0.005
+#: A silhouette covering at least this share of its image says nothing about the person: a
+#: capture rig sees the whole body, so a person never fills 90 % of a camera's view.
+FULL_SHARE = 0.9
 
 
-@dataclass
-class FrameMeasurement:
-    """Everything the measurement stage computes for one frame.
+def unusable_reason(image: np.ndarray, mask: np.ndarray) -> str | None:
+    """Why one camera's frame cannot constrain the carving, or None when it can.
 
-    Attributes
+    Parameters
     ----------
-    masks : (N_C, H, W) bool ndarray
-        Silhouettes in rig order.
-    occupancy : (nx, ny, nz) bool ndarray
-        ``V^R``.
-    surface : (nx, ny, nz) bool ndarray
-        ``V^S``.
-    smoothed : (nx, ny, nz) float32 ndarray
-        ``Ṽ^S`` in [0, 1].
-    timings : dict of str to float
-        Seconds spent in ``"subtract"``, ``"carve"``, ``"surface"`` and ``"smooth"``.
-    """
+    image : (H, W) or (H, W, 3) uint8 ndarray
+        The decoded frame.
+    mask : (H, W) bool ndarray
+        Its silhouette.
 
-    masks: np.ndarray
-    occupancy: np.ndarray
-    surface: np.ndarray
-    smoothed: np.ndarray
-    timings: dict = field(default_factory=dict)
+    Returns
+    -------
+    str or None
+        ``"the image is black"``, ``"the silhouette covers <p> % of the image"`` or None.
+    """
+    img = np.asarray(image)
+    if np.count_nonzero(img > BLACK_LEVEL) <= BLACK_SHARE * img.size:
+        return "the image is black"
+    share = float(np.count_nonzero(mask)) / max(mask.size, 1)
+    if share >= FULL_SHARE:
+        return f"the silhouette covers {100 * share:.0f} % of the image"
+    return None
 
 
 class MeasurementStage:
@@ -71,6 +87,13 @@ class MeasurementStage:
         Carving rule (:meth:`voxelmocap.carving.Carver.carve`); default every camera that sees a voxel.
     sigma : float
         Smoothing of the surface voxels (voxels).
+
+    Attributes
+    ----------
+    grid : VoxelGrid
+    names : list of str
+        Camera names in rig order (the order of the masks).
+    carver : Carver
     """
 
     def __init__(self, rig, grid: VoxelGrid, backgrounds: Mapping, config: SilhouetteConfig | None
@@ -82,15 +105,31 @@ class MeasurementStage:
             raise InputError("backgrounds", f"no background model for camera(s) {', '.join(missing)}")
         if not sigma > 0:
             raise InputError("sigma", f"must be positive, got {sigma!r}")
+        n_cam = len(self.cameras)
+        if min_views is not None and (isinstance(min_views, bool) or min_views != int(min_views)
+                                      or not 1 <= min_views <= n_cam):
+            raise InputError("min_views", f"must be an integer between 1 and {n_cam} (the number "
+                                          f"of cameras), got {min_views!r}")
         self.grid = grid
         self.backgrounds = dict(backgrounds)
         self.config = config or SilhouetteConfig()
-        self.min_views = min_views
+        self.min_views = None if min_views is None else int(min_views)
         self.sigma = float(sigma)
         self.carver = Carver(self.cameras, grid)
 
     def masks(self, images: Mapping) -> np.ndarray:
-        """``(N_C, H, W)`` bool silhouettes of one frame (``images``: camera name → image)."""
+        """Silhouettes of one frame (adaptive background models learn from it).
+
+        Parameters
+        ----------
+        images : mapping of str to (H, W) or (H, W, 3) uint8 ndarray
+            One decoded image per camera name.
+
+        Returns
+        -------
+        (N_C, H, W) bool ndarray
+            In rig order; a list of ``(H_c, W_c)`` masks when the cameras differ in size.
+        """
         missing = [n for n in self.names if n not in images]
         if missing:
             raise InputError("images", f"no image for camera(s) {', '.join(missing)}")
@@ -106,8 +145,39 @@ class MeasurementStage:
             return np.stack(out)
         return out  # cameras of different sizes: a list of (H_c, W_c) masks
 
-    def process(self, images: Mapping) -> tuple[np.ndarray, np.ndarray]:
-        """Silhouettes and occupancy of one frame.
+    def carve(self, masks, excluded=()) -> tuple[np.ndarray, bool]:
+        """Occupancy of one frame's silhouettes, leaving out the cameras named in ``excluded``.
+
+        Parameters
+        ----------
+        masks : (N_C, H, W) bool ndarray or list of (H_c, W_c) bool ndarray
+            Silhouettes in rig order.
+        excluded : collection of str
+            Cameras that must not constrain the carving.
+
+        Returns
+        -------
+        occupancy : (nx, ny, nz) bool ndarray
+        empty : bool
+            No used camera has a foreground pixel (no person in view); the occupancy is empty.
+        """
+        use = [n not in excluded for n in self.names]
+        if not any(m.any() for m, u in zip(masks, use, strict=True) if u):
+            return np.zeros(self.grid.shape, dtype=bool), True
+        if not excluded:
+            return self.carver.carve(masks, min_views=self.min_views), False
+        # An excluded camera votes for nothing under min_views (an empty mask) and vetoes nothing
+        # under the every-view rule (a full mask); voxels that only it sees are then dropped.
+        fill = self.min_views is None
+        masks = [m if u else np.full(m.shape, fill) for m, u in zip(masks, use, strict=True)]
+        occ = self.carver.carve(masks, min_views=self.min_views)
+        if fill:
+            seen = (self.carver.tables[np.flatnonzero(use)] >= 0).any(axis=0)
+            occ &= seen.reshape(self.grid.shape)
+        return occ, False
+
+    def measure(self, images: Mapping) -> VoxelObservation:
+        """The observation of one frame: silhouettes, occupancy, surface maps and timings.
 
         Parameters
         ----------
@@ -116,22 +186,20 @@ class MeasurementStage:
 
         Returns
         -------
-        masks : (N_C, H, W) bool ndarray
-        occupancy : (nx, ny, nz) bool ndarray
+        VoxelObservation
+            With ``masks``, ``timings`` (``"subtract"``, ``"carve"``, ``"surface"``, ``"smooth"``
+            seconds), ``empty`` and ``excluded`` (camera name → reason) set.
         """
-        masks = self.masks(images)
-        return masks, self.carver.carve(masks, min_views=self.min_views)
-
-    def measure(self, images: Mapping) -> FrameMeasurement:
-        """Silhouettes, occupancy, surface and smoothed surface of one frame, with timings."""
         t0 = time.perf_counter()
         masks = self.masks(images)
         t1 = time.perf_counter()
-        occ = self.carver.carve(masks, min_views=self.min_views)
+        excluded = {}
+        for name, mask in zip(self.names, masks, strict=True):
+            reason = unusable_reason(images[name], mask)
+            if reason is not None:
+                excluded[name] = reason
+        occ, empty = self.carve(masks, excluded)
         t2 = time.perf_counter()
-        surf = surface_voxels(occ)
-        t3 = time.perf_counter()
-        smooth = smooth_surface(surf, self.sigma)
-        t4 = time.perf_counter()
-        timings = {"subtract": t1 - t0, "carve": t2 - t1, "surface": t3 - t2, "smooth": t4 - t3}
-        return FrameMeasurement(masks, occ, surf, smooth, timings)
+        return VoxelObservation(occ, self.grid, sigma=self.sigma, masks=masks,
+                                timings={"subtract": t1 - t0, "carve": t2 - t1}, empty=empty,
+                                excluded=excluded)

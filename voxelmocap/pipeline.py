@@ -22,6 +22,7 @@ import numpy as np
 
 from .config import TrackConfig, config_to_toml
 from .errors import InputError
+from .measurement_runner import MeasurementRunner  # re-export: it lived here
 
 __all__ = [
     "MeasurementRunner",
@@ -133,82 +134,6 @@ def build_filter(model, config: TrackConfig, rng):
         fc.particles, fc.layers, model.low, model.high, noise_std(model, config),
         strategy=fc.strategy, rng=rng, survival=fc.survival, noise_decay=fc.noise_decay,
         dynamics=dynamics)
-
-
-class MeasurementRunner:
-    """The measurement side of one sequence: its grid and background models, read once.
-
-    Reads the background videos (the only file access), then hands frames to a
-    :class:`~voxelmocap.measurement.MeasurementStage` and wraps the occupancy into the likelihood's
-    :class:`~voxelmocap.likelihood.Measurement`.
-
-    Parameters
-    ----------
-    seq : voxelmocap.io.humaneva.Sequence
-        The sequence (its cameras, calibration and background videos).
-    config : TrackConfig
-        ``config.measurement`` is used.
-    log : callable
-        Where one-line messages go.
-    """
-
-    def __init__(self, seq, config: TrackConfig, log=print):
-        from .grid import VoxelGrid
-        from .measurement import MeasurementStage
-        from .silhouette import SilhouetteConfig, build_backgrounds
-
-        mc = config.measurement
-        self.config = mc
-        silhouette = SilhouetteConfig.from_dict(mc.silhouette, source="measurement.silhouette")
-        rig = seq.rig
-        for key in ("camera_risk", "camera_var_threshold"):
-            unknown = sorted(set(getattr(silhouette, key)) - set(seq.all_camera_names))
-            if unknown:
-                raise InputError(f"measurement.silhouette.{key}",
-                                 f"unknown camera {unknown[0]!r} (this sequence has "
-                                 f"{', '.join(seq.all_camera_names)})")
-        if mc.grid_origin is not None:
-            self.grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
-            self.grid.check_memory(8.0, what="the measurement volumes")
-        else:
-            self.grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
-        frames = {}
-        for cam in seq.camera_names:
-            paths = seq.background_paths(cam)
-            if paths:
-                per_video = max(1, mc.background_frames // len(paths))
-                frames[cam] = seq.background_sets(cam, max_frames=per_video)
-        missing = [c for c in seq.camera_names if c not in frames]
-        if missing and silhouette.method == "gaussian":
-            # The toolkit's Gaussian model is the default only where background videos exist.
-            import dataclasses
-
-            silhouette = dataclasses.replace(silhouette, method="mog2")
-            # Train on frames spread over the whole sequence: a moving person averages out.
-            n = seq.n_frames
-            sample = np.unique(np.linspace(1, n, min(n, mc.background_frames)).round().astype(int))
-            for cam in missing:
-                frames[cam] = [[]]
-            for _, images in seq.frames(sample):
-                for cam in missing:
-                    frames[cam][0].append(images[cam])
-            if log is not None:
-                log(f"no background video for {', '.join(missing)}: using MOG2 learnt from "
-                    f"{len(sample)} frames spread over the sequence")
-        #: True when the background model keeps learning from the frames it segments (MOG2):
-        #: a resumed run must then replay the frames already done to rebuild its state.
-        self.adaptive = silhouette.method == "mog2" and silhouette.mog2_learning_rate != 0
-        backgrounds = build_backgrounds(silhouette, seq.camera_names, frames, sets=True)
-        self.stage = MeasurementStage(rig, self.grid, backgrounds, silhouette,
-                                      min_views=mc.min_views, sigma=mc.surface_sigma)
-
-    def measure(self, images: dict, *, return_masks: bool = False):
-        """The likelihood's :class:`~voxelmocap.likelihood.Measurement` of one frame's images."""
-        from .likelihood import Measurement
-
-        masks, occupancy = self.stage.process(images)
-        measurement = Measurement(occupancy, self.grid, sigma=self.config.surface_sigma)
-        return (measurement, masks) if return_masks else measurement
 
 
 def body_model_for(seq, gt=None):

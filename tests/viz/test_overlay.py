@@ -1,3 +1,4 @@
+import cv2
 import numpy as np
 
 from voxelmocap.camera import Camera
@@ -31,3 +32,117 @@ def test_landmarks_land_on_their_projection():
     pix = np.round(cam.project(lm)).astype(int)
     assert np.all(image[pix[:, 1], pix[:, 0], 2] == 255)
     assert image[..., 2].astype(bool).sum() < 15 * 80  # only small (anti-aliased) dots
+
+
+def test_overlay_frame_draws_cones_truth_and_landmarks_on_a_copy():
+    from voxelmocap.body import BodyModel
+    from voxelmocap.viz.overlay import TRACKED_COLOUR, TRUTH_COLOUR, overlay_frame
+
+    cam = front_camera()
+    model = BodyModel()
+    state = model.default_state()
+    lm = model.landmarks(state[None])[0]
+    gray = np.full((480, 640), 50, np.uint8)
+    out = overlay_frame(gray, cam, model, state, lm, truth=lm + [150.0, 0, 0], caption="F=3")
+    assert out.shape == (480, 640, 3) and out.dtype == np.uint8 and np.all(gray == 50)
+    pix = np.round(cam.project(lm)).astype(int)
+    assert np.all(out[pix[:, 1], pix[:, 0]] == TRACKED_COLOUR)
+    tpix = np.round(cam.project(lm + [150.0, 0, 0])).astype(int)
+    on_truth = (out[tpix[:, 1], tpix[:, 0]] == TRUTH_COLOUR).all(axis=1)
+    assert on_truth.sum() >= 10  # the truth's dots, except where a tracked dot covers one
+    changed = np.any(out != 50, axis=2)
+    assert changed[:30, :80].any()  # the caption
+    assert changed.sum() > 2000  # the cone outlines
+
+
+def _tracked_run(root):
+    """A tiny data set and a run folder whose result puts a standing body in front of C1."""
+    from humaneva_fixture import make_tiny_dataset
+
+    from voxelmocap.io.humaneva import Dataset
+    from voxelmocap.io.results import TrackResult, write_result
+    from voxelmocap.pipeline import body_model_for
+
+    data = make_tiny_dataset(root / "data", n_frames=5)
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    model, _ = body_model_for(seq, seq.ground_truth())
+    frames = np.array([2, 3, 4])
+    state = np.repeat(model.default_state()[None], 3, axis=0)
+    state[:, 0] = [-200.0, 0.0, 200.0]
+    n = len(frames)
+    result = TrackResult(
+        frames=frames, state=state, landmarks=model.landmarks(state),
+        endpoints=model.endpoints(state), part_scores=np.zeros((n, len(model.parts), 4)),
+        ess=np.ones((n, 1)), betas=np.ones((n, 1)), seconds=np.ones(n),
+        log_likelihood=np.zeros(n), map_state=state, state_names=list(model.state_names),
+        part_names=[p.name for p in model.parts], attrs={"complete": True}, checkpoint=None)
+    write_result(root / "run" / "S1" / "Walking_1.h5", result)
+    return data, root / "run", seq.rig["C1"], result
+
+
+def test_overlay_command_writes_the_video(tmp_path, capsys):
+    from voxelmocap.cli import main
+
+    data, run, cam, result = _tracked_run(tmp_path)
+    out = tmp_path / "videos" / "c1.avi"
+    assert main(["overlay", str(run), "--dataset", str(data), "--out", str(out),
+                 "--fps", "12"]) == 0
+    assert f"overlay: {out}" in capsys.readouterr().out
+    assert [p.name for p in out.parent.iterdir()] == ["c1.avi"]
+    cap = cv2.VideoCapture(str(out))
+    assert abs(cap.get(cv2.CAP_PROP_FPS) - 12.0) < 1e-6
+    decoded = []
+    while True:
+        ok, img = cap.read()
+        if not ok:
+            break
+        decoded.append(img)
+    cap.release()
+    assert len(decoded) == 3
+    for img, lm in zip(decoded, result.landmarks, strict=True):
+        pix = np.round(cam.project(lm)).astype(int)
+        inside = (pix[:, 0] >= 3) & (pix[:, 0] < 637) & (pix[:, 1] >= 3) & (pix[:, 1] < 477)
+        assert inside.sum() >= 10
+        _, g, r = img[pix[inside, 1], pix[inside, 0]].astype(int).T
+        # red dots (through JPEG) where the tracked landmarks project
+        assert np.median(r) > 150 and np.median(r - g) > 80
+
+
+def _listing(folder):
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+def test_overlay_refusals_are_one_line_and_leave_nothing(tmp_path, capsys, monkeypatch):
+    from voxelmocap.cli import main
+
+    data, run, _, _ = _tracked_run(tmp_path)
+    (tmp_path / "plain").write_text("x")
+    before = _listing(tmp_path)
+
+    def fails(extra, message):
+        assert main(["overlay", str(run), "--dataset", str(data), *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+        assert _listing(tmp_path) == before
+
+    fails(["--out", str(tmp_path / "x.gif")], "not a video file name")
+    fails(["--out", str(tmp_path / "x.png")], "not a video file name")
+    fails(["--out", str(tmp_path / "x.mp4"), "--fps", "0"], "frame rate must be a positive")
+    fails(["--out", str(tmp_path / "plain" / "x.mp4")], "plain: exists and is not a folder")
+    fails(["--out", str(tmp_path / ("n" * 300 + ".mp4"))], "cannot write here")
+    # a failure half way through the frames leaves neither the video nor its temporary
+    import voxelmocap.viz.overlay as overlay
+    from voxelmocap.errors import InputError
+
+    calls = {"n": 0}
+    real = overlay.overlay_frame
+
+    def breaks(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise InputError("frame 3", "cannot decode")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(overlay, "overlay_frame", breaks)
+    fails(["--out", str(tmp_path / "x.mp4"), "--no-progress"], "cannot decode")
+    assert calls["n"] == 2

@@ -56,77 +56,17 @@ def _config(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    import time
-    import warnings
-    from pathlib import Path
+    from ..measurement_runner import dump_sequence
 
-    from ..carving import EmptySilhouetteWarning
-    from ..config import config_to_toml
-    from ..errors import InputError
-    from ..io.humaneva import Dataset
-    from ..io.voxels import VoxelDumpWriter, write_ply
-    from ..pipeline import MeasurementRunner, parse_frame_range
-
-    config = _config(args)
     cameras = [c.strip() for c in args.cameras.split(",") if c.strip()] if args.cameras else None
-    seq = Dataset(args.dataset).sequence(args.subject, args.sequence, cameras=cameras)
-    frames = (parse_frame_range(args.frames, seq.frame_numbers) if args.frames
-              else seq.frame_numbers)
-    if len(frames) == 0:
-        raise InputError(f"{seq.subject}/{seq.name}", "no frames to dump")
-    out = Path(args.out)
-    if out.suffix.lower() not in (".h5", ".hdf5"):
-        raise InputError("--out", f"expected an .h5 file name, got {args.out!r}")
-    ply_dir = Path(args.ply) if args.ply else None
-    if ply_dir is not None and ply_dir.exists() and not ply_dir.is_dir():
-        raise InputError("--ply", f"{ply_dir} exists and is not a folder")
-
-    runner = MeasurementRunner(seq, config, log=print)
-    stage = runner.stage
-    grid = runner.grid
-    print(f"{seq.subject}/{seq.name}: {len(frames)} frames, cameras {','.join(seq.camera_names)}, "
-          f"grid {grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} at {grid.voxel_size:g} mm")
-    attrs = {"dataset": str(Path(args.dataset).resolve()), "subject": seq.subject,
-             "sequence": seq.name, "config": config_to_toml(config),
-             "surface_sigma": float(config.measurement.surface_sigma)}
-    bar = None
-    if not args.no_progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(frames), desc=f"{seq.subject}/{seq.name}", unit="frame",
-                   dynamic_ncols=True)
-    empty = []
-    totals = {"decode": 0.0}
-    t_decode = time.perf_counter()
-    try:
-        with VoxelDumpWriter(out, grid, cameras=list(seq.rig), attrs=attrs) as writer:
-            for number, images in seq.frames(frames):
-                totals["decode"] += time.perf_counter() - t_decode
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", EmptySilhouetteWarning)
-                    m = stage.measure(images)
-                if any(issubclass(w.category, EmptySilhouetteWarning) for w in caught):
-                    empty.append(int(number))
-                for key, value in m.timings.items():
-                    totals[key] = totals.get(key, 0.0) + value
-                writer.write(int(number), m.occupancy, surface=m.surface, smoothed=m.smoothed,
-                             masks=m.masks if args.masks else None)
-                if ply_dir is not None:
-                    write_ply(ply_dir / f"frame_{int(number):05d}.ply", grid, m.occupancy,
-                              points=args.ply_points)
-                if bar is not None:
-                    bar.update(1)
-                t_decode = time.perf_counter()
-    finally:
-        if bar is not None:
-            bar.close()
-    n = len(frames)
-    per_frame = ", ".join(f"{k} {1000 * v / n:.1f}" for k, v in totals.items())
-    print(f"wrote {out} ({n} frames); ms per frame: {per_frame}")
-    if ply_dir is not None:
-        print(f"PLY files in {ply_dir}")
-    if empty:
-        shown = ", ".join(str(f) for f in empty[:10]) + (" …" if len(empty) > 10 else "")
-        print(f"warning: {len(empty)} frame(s) had empty silhouettes in every view (no person): "
-              f"{shown}")
+    outcome = dump_sequence(args.dataset, args.subject, args.sequence, args.out,
+                            config=_config(args), frames=args.frames, cameras=cameras,
+                            masks=args.masks, ply_dir=args.ply, ply_points=args.ply_points,
+                            progress=not args.no_progress, log=print)
+    per_frame = ", ".join(f"{k} {1000 * v:.1f}" for k, v in outcome.seconds_per_frame.items())
+    print(f"wrote {outcome.path} ({len(outcome.frames)} frames); ms per frame: {per_frame}")
+    if outcome.ply_dir is not None:
+        print(f"PLY files in {outcome.ply_dir}")
+    if outcome.summary:
+        print(f"warning: {outcome.summary}")
     return 0

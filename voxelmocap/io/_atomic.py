@@ -1,15 +1,25 @@
-"""Atomic file writes: write to a temporary sibling, then rename over the target."""
+"""Atomic file writes: write to a temporary sibling, then rename over the target.
+
+The temporary is a hidden sibling ``.<stem>.partial-<letters><suffix>``: beside the target so the
+rename is atomic, with the target's suffix so writers that dispatch on it (OpenCV, h5py, Matplotlib)
+still work, and without digits, which OpenCV's image writers read as a frame-number pattern.
+It is created (empty) before the caller writes, so an output that cannot be written is reported
+as one :class:`~voxelmocap.errors.InputError` before any work, and deleted on every failure.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import secrets
+import string
 from collections.abc import Iterator
 from pathlib import Path
 
 from ..errors import InputError
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "ensure_output_dir"]
+__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "create_temporary",
+           "ensure_output_dir", "temporary_name"]
 
 
 def ensure_output_dir(path) -> Path:
@@ -24,22 +34,72 @@ def ensure_output_dir(path) -> Path:
     return path
 
 
+def temporary_name(path) -> Path:
+    """A fresh hidden sibling name of ``path`` with its suffix and no digit (see the module doc)."""
+    path = Path(path)
+    letters = "".join(secrets.choice(string.ascii_lowercase) for _ in range(10))
+    return path.with_name(f".{path.stem}.partial-{letters}{path.suffix}")
+
+
+def create_temporary(path) -> Path:
+    """Check that ``path`` can be written and create its (empty) temporary sibling.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The final file.
+
+    Returns
+    -------
+    Path
+        The temporary file, created empty; the caller renames or deletes it.
+
+    Raises
+    ------
+    InputError
+        ``path`` is a folder, its folder cannot be created, or no file can be created there.
+    """
+    path = Path(path)
+    try:
+        is_dir = path.is_dir()
+    except OSError as exc:  # e.g. a name too long for the file system
+        raise InputError(path, f"cannot write here ({exc.strerror or exc})") from None
+    if is_dir:
+        raise InputError(path, "is a folder; give a file name")
+    ensure_output_dir(path.parent)
+    while True:
+        tmp = temporary_name(path)
+        try:
+            with open(tmp, "xb"):
+                return tmp
+        except FileExistsError:  # pragma: no cover - 26^10 names
+            continue
+        except OSError as exc:
+            raise InputError(path, f"cannot write here ({exc.strerror or exc})") from None
+
+
 @contextlib.contextmanager
 def atomic_path(path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
 
-    The temporary name keeps the suffix, so writers that dispatch on it (OpenCV, h5py) still work.
+    The temporary exists (empty) when yielded; writers replace its content.
+
+    Raises
+    ------
+    InputError
+        ``path`` cannot be written (see :func:`create_temporary`), or the finished file cannot be
+        moved to its name.
     """
     path = Path(path)
-    if path.is_dir():
-        raise InputError(path, "is a folder; give a file name")
-    ensure_output_dir(path.parent)
-    tmp = path.with_name(f".{path.stem}.partial{os.getpid()}{path.suffix}")
+    tmp = create_temporary(path)
     try:
         yield tmp
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise InputError(path, f"cannot write here ({exc.strerror or exc})") from None
     finally:
-        if tmp.exists():
+        with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
 
 

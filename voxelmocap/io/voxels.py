@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..grid import VoxelGrid
-from ._atomic import atomic_path
+from ._atomic import atomic_path, create_temporary
 
 __all__ = ["FORMAT", "VERSION", "VoxelDump", "VoxelDumpWriter", "write_ply"]
 
@@ -71,12 +71,13 @@ class VoxelDumpWriter:
         self.grid = grid
         self.cameras = list(cameras) if cameras is not None else []
         self._level = int(compression)
-        # the temporary keeps the .h5 suffix and lives beside the target, so the rename is atomic
-        self._tmp = self.path.with_name(f".{self.path.stem}.partial{os.getpid()}{self.path.suffix}")
+        # the temporary keeps the .h5 suffix and lives beside the target, so the rename is atomic;
+        # creating it checks that the place can be written (InputError otherwise, nothing left)
+        self._tmp = create_temporary(self.path)
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
             self._file = h5py.File(self._tmp, "w")
         except OSError as exc:
+            self._tmp.unlink(missing_ok=True)
             raise InputError(self.path, f"cannot create the file ({exc})") from None
         f = self._file
         f.attrs["format"] = FORMAT
@@ -175,18 +176,21 @@ class VoxelDumpWriter:
         """Finish the file and move it to its final name."""
         if self._file is None:
             return
-        self._file.attrs["n_frames"] = self._n
-        self._file.close()
-        self._file = None
-        os.replace(self._tmp, self.path)
+        try:
+            self._file.attrs["n_frames"] = self._n
+            self._file.close()
+            self._file = None
+            os.replace(self._tmp, self.path)
+        except OSError as exc:
+            self.abort()
+            raise InputError(self.path, f"cannot write the file ({exc})") from None
 
     def abort(self) -> None:
-        """Discard the file (nothing is left under the final name)."""
-        if self._file is None:
-            return
-        with contextlib.suppress(Exception):
-            self._file.close()
-        self._file = None
+        """Discard the file (nothing is left under the final name, nor a temporary)."""
+        if self._file is not None:
+            with contextlib.suppress(Exception):
+                self._file.close()
+            self._file = None
         with contextlib.suppress(FileNotFoundError):
             self._tmp.unlink()
 

@@ -2,7 +2,9 @@
 
 :func:`cone_outline_points` samples each truncated elliptic cone as two ellipses (base and top)
 and four generator lines, :func:`draw_pose` projects them (and optional landmarks) through a
-camera's full model and draws them. Pure functions on arrays; writing videos is the command's job.
+camera's full model and draws them; :func:`overlay_frame` composes one frame of an overlay video
+(cones, tracked landmarks, ground truth, a caption). Pure functions on arrays; writing videos is
+:func:`voxelmocap.inspection.overlay_video`'s job.
 """
 
 from __future__ import annotations
@@ -12,11 +14,15 @@ import numpy as np
 
 from ..joints import LANDMARK_PARENTS
 
-__all__ = ["cone_outline_points", "draw_landmarks", "draw_pose"]
+__all__ = ["TRACKED_COLOUR", "TRUTH_COLOUR", "cone_outline_points", "draw_landmarks", "draw_pose",
+           "overlay_frame"]
 
 #: BGR colours of the ten parts (torso, head, arms, forearms, thighs, shins).
 PART_COLOURS = ((60, 180, 255), (255, 255, 255), (80, 220, 80), (40, 160, 40), (255, 120, 60),
                 (200, 80, 30), (230, 90, 230), (160, 40, 160), (60, 230, 230), (30, 150, 150))
+#: BGR colours of the tracked landmarks (red) and of the ground truth (green).
+TRACKED_COLOUR = (0, 0, 255)
+TRUTH_COLOUR = (0, 220, 0)
 
 
 def cone_outline_points(base, axis, u1, u2, H, W, L, R, n: int = 24) -> list[np.ndarray]:
@@ -85,3 +91,39 @@ def draw_landmarks(image, camera, landmarks, colour=(0, 0, 255), *, radius: int 
     for j in np.flatnonzero(ok):
         cv2.circle(image, tuple(np.round(pix[j]).astype(int)), radius, colour, -1, cv2.LINE_AA)
     return image
+
+
+def overlay_frame(image, camera, model, state, landmarks, *, truth=None, caption: str = ""):
+    """One frame of an overlay video: a BGR copy of ``image`` with the tracked pose drawn on it.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) uint8 ndarray
+        The camera's frame (gray frames are converted to BGR).
+    camera : Camera
+        The camera that took it.
+    model : BodyModel
+        The tracked body model.
+    state : (27,) array_like
+        The tracked state (cones, in :data:`PART_COLOURS`).
+    landmarks : (15, 3) array_like
+        The tracked landmarks (mm), drawn in :data:`TRACKED_COLOUR`.
+    truth : (15, 3) array_like, optional
+        Ground-truth landmarks (mm), drawn in :data:`TRUTH_COLOUR` under the tracked ones.
+    caption : str
+        Text at the top left.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    image = np.asarray(image)
+    out = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
+    draw_pose(out, camera, model, state)
+    if truth is not None:
+        draw_landmarks(out, camera, truth, TRUTH_COLOUR)
+    draw_landmarks(out, camera, landmarks, TRACKED_COLOUR)
+    if caption:
+        cv2.putText(out, caption, (8, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1,
+                    cv2.LINE_AA)
+    return np.ascontiguousarray(out)

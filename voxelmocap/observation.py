@@ -1,0 +1,144 @@
+"""One measured frame: :class:`VoxelObservation`, what the measurement stage hands to the tracker.
+
+A frame's observation holds the voxel reconstruction ``V^R`` on its grid and everything derived
+from it once: the surface voxels ``V^S``, the smoothed surface ``Ṽ^S`` (:mod:`voxelmocap.surface`),
+the quantised ``Ṽ^S`` and the prefix sums along z that the likelihood kernels read
+(:mod:`voxelmocap.likelihood`), and optionally the silhouettes it was carved from, the
+measurement's timings and what the stage noticed about the frame (empty silhouettes, cameras left
+out). :class:`voxelmocap.measurement.MeasurementStage` builds one per frame; ``voxelmocap dump``
+writes its volumes and ``voxelmocap track`` scores poses against it, so both see the same numbers.
+
+``Ṽ^S`` is quantised to integers ``round(Ṽ^S · QMAX)`` so that every likelihood sum is an exact
+integer and the fast and reference implementations agree bit for bit. The quantised values and the
+prefix sums are computed on first use (a dump never needs them) and kept.
+
+>>> from voxelmocap.grid import VoxelGrid
+>>> grid = VoxelGrid((0.0, 0.0, 0.0), 10.0, (5, 5, 5))
+>>> occ = np.zeros(grid.shape, bool); occ[1:4, 1:4, 1:4] = True
+>>> obs = VoxelObservation(occ, grid, sigma=1.0)
+>>> int(obs.surface.sum()), int(obs.prefix[2, 2, -1, 1]), obs.prefix.shape  # 3 occupied in column
+(26, 3, (5, 5, 6, 3))
+"""
+
+from __future__ import annotations
+
+import time
+from functools import cached_property
+
+import numpy as np
+
+from .errors import InputError
+from .grid import VoxelGrid
+from .surface import smooth_surface, surface_voxels
+
+__all__ = ["QMAX", "VoxelObservation"]
+
+#: Quantised value of Ṽ^S = 1.
+QMAX = 65535
+
+
+class VoxelObservation:
+    """The data of one frame: ``V^R``, ``V^S``, ``Ṽ^S``, the analysed scene and the silhouettes.
+
+    Parameters
+    ----------
+    occupancy : (nx, ny, nz) array_like of bool
+        Voxel reconstruction ``V^R`` on ``grid`` (non-bool values: non-zero is occupied).
+    grid : VoxelGrid
+        The grid of ``occupancy``.
+    sigma : float
+        Standard deviation (voxels) of the Gaussian that smooths the surface into ``Ṽ^S``.
+    scene : (nx, ny, nz) array_like of bool, optional
+        The analysed scene; default the whole grid. Occupancy outside the scene is ignored.
+    masks : (N_C, H, W) bool ndarray or list of (H_c, W_c) bool ndarray, optional
+        The silhouettes ``occupancy`` was carved from, in rig order.
+    timings : dict of str to float, optional
+        Seconds spent so far on this frame (the stage's ``"subtract"`` and ``"carve"``);
+        ``"surface"`` and ``"smooth"`` are added here.
+    empty : bool
+        Every silhouette was empty (no person in view).
+    excluded : dict of str to str, optional
+        Cameras left out of the carving of this frame, with the reason (e.g. ``"all black"``).
+
+    Attributes
+    ----------
+    grid : VoxelGrid
+    sigma : float
+    occupancy, surface, scene : (nx, ny, nz) bool ndarray
+        ``V^R`` (restricted to the scene), ``V^S`` and the scene mask.
+    smoothed : (nx, ny, nz) float32 ndarray
+        ``Ṽ^S`` in [0, 1], 0 outside the scene.
+    smoothed_q : (nx, ny, nz) int32 ndarray
+        ``round(Ṽ^S · QMAX)``, the values both likelihood implementations use (computed on first
+        use).
+    prefix : (nx, ny, nz + 1, 3) int32 ndarray
+        Prefix sums along z of ``scene``, ``occupancy`` and ``smoothed_q`` (computed on first use).
+    masks, timings, empty, excluded
+        As given (``timings`` with the surface timings added; ``excluded`` a dict).
+    """
+
+    def __init__(self, occupancy, grid: VoxelGrid, *, sigma: float = 1.0, scene=None,
+                 masks=None, timings: dict | None = None, empty: bool = False,
+                 excluded: dict | None = None):
+        if not isinstance(grid, VoxelGrid):
+            raise InputError("grid", f"expected a VoxelGrid, got {type(grid).__name__}")
+        occ = np.asarray(occupancy)
+        if occ.shape != grid.shape:
+            raise InputError("occupancy", f"shape {occ.shape} does not match the grid {grid.shape}")
+        if occ.dtype != bool:
+            if occ.dtype.kind == "f" and not np.all(np.isfinite(occ)):
+                raise InputError("occupancy", "contains NaN or infinite values")
+            occ = occ != 0
+        try:
+            sigma = float(sigma)
+        except (TypeError, ValueError):
+            raise InputError("sigma", f"must be a number, got {sigma!r}") from None
+        if not (np.isfinite(sigma) and sigma > 0):
+            raise InputError("sigma", f"must be a positive number of voxels, got {sigma!r}")
+        if scene is None:
+            scene_mask = np.ones(grid.shape, dtype=bool)
+        else:
+            scene_mask = np.asarray(scene)
+            if scene_mask.shape != grid.shape:
+                raise InputError("scene", f"shape {scene_mask.shape} does not match the grid "
+                                          f"{grid.shape}")
+            scene_mask = scene_mask.astype(bool)
+        if grid.shape[2] * QMAX >= 2**31:
+            raise InputError("grid", f"too many layers ({grid.shape[2]}) for int32 prefix sums")
+        self.grid = grid
+        self.sigma = sigma
+        self.scene = scene_mask
+        self.occupancy = occ & scene_mask  # a copy too: the caller's array may change later
+        self.masks = masks
+        self.timings = dict(timings or {})
+        self.empty = bool(empty)
+        self.excluded = dict(excluded or {})
+        t0 = time.perf_counter()
+        self.surface = surface_voxels(self.occupancy)
+        t1 = time.perf_counter()
+        smoothed = smooth_surface(self.surface, sigma)
+        if scene is not None:
+            smoothed[~scene_mask] = 0.0
+        self.smoothed = smoothed
+        t2 = time.perf_counter()
+        self.timings["surface"] = t1 - t0
+        self.timings["smooth"] = t2 - t1
+
+    @cached_property
+    def smoothed_q(self) -> np.ndarray:
+        """``(nx, ny, nz)`` int32 ``round(Ṽ^S · QMAX)``."""
+        return np.rint(self.smoothed.astype(np.float64) * QMAX).astype(np.int32)
+
+    @cached_property
+    def prefix(self) -> np.ndarray:
+        """``(nx, ny, nz + 1, 3)`` int32 prefix sums along z of scene, occupancy, ``smoothed_q``."""
+        nx, ny, nz = self.grid.shape
+        prefix = np.zeros((nx, ny, nz + 1, 3), dtype=np.int32)
+        np.cumsum(self.scene, axis=2, out=prefix[:, :, 1:, 0])
+        np.cumsum(self.occupancy, axis=2, out=prefix[:, :, 1:, 1])
+        np.cumsum(self.smoothed_q, axis=2, out=prefix[:, :, 1:, 2])
+        return prefix
+
+    def __repr__(self) -> str:
+        return (f"VoxelObservation(grid shape {self.grid.shape}, {self.grid.voxel_size:g} mm, "
+                f"{int(self.occupancy.sum())} occupied voxels)")
