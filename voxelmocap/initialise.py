@@ -235,8 +235,15 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
     standing = model.default_state()
     pelvis_height = standing[2]
     out: list[Hypothesis] = []
+    labellings = []
     for head in head_choices[:2]:
-        hands_idx = [i for i in others if i != head][:2]
+        rest = [i for i in others if i != head]
+        labellings.append((head, rest[:2]))
+        if rest:
+            # Arms that hang along the body leave no tips of their own: what is left may be
+            # bumps (an elbow, a hip), so try the arms neutral as well.
+            labellings.append((head, []))
+    for head, hands_idx in labellings:
         feet, hands = tips[feet_idx], tips[hands_idx]
         for yaw in _candidate_yaws(feet, hands, n_ring):
             right = _right_of(yaw)
@@ -259,6 +266,7 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
             x0[3] = yaw
             state, cost = _fit(model, x0, ends, ex.centre)
             label = (f"{'no head' if head is None else 'head = tip ' + str(head)}, "
+                     f"{'hands = tips ' + str(hands_idx) if hands_idx else 'arms neutral'}, "
                      f"facing {np.degrees(yaw):.0f}°")
             out.append(Hypothesis(state, label, cost))
     return out
