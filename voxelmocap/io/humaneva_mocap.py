@@ -200,7 +200,7 @@ def read_mocap_mat(path, *, what: str = "mocap trial", need_labels: bool = True)
     except NotImplementedError:
         raise InputError(path, "MATLAB v7.3 (HDF5) files are not supported; re-save it with "
                                "save(..., '-v7')") from None
-    except Exception as exc:  # noqa: BLE001 - scipy raises many types on corrupt files
+    except Exception as exc:  # scipy raises many exception types on corrupt files
         raise InputError(path, f"cannot read the MAT file ({exc.__class__.__name__}: "
                                f"{' '.join(str(exc).split())[:120]})") from None
     if "Markers" not in data:
