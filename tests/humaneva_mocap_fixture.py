@@ -106,8 +106,10 @@ def write_mocap_mat(path, markers, labels=LABELS, *, groups=True, compress=True,
             "AnalogFrameRate": np.array([[0.0]]), "Event": np.zeros((0, 0))}
     if markers is not None:
         data["Markers"] = np.asarray(markers, float)
-    if groups:
-        data["ParameterGroup"] = parameter_groups(labels) if groups is True else groups
+    if groups is True:
+        data["ParameterGroup"] = parameter_groups(labels)
+    elif groups is not False:
+        data["ParameterGroup"] = groups
     data.update(extra)
     scipy.io.savemat(str(path), data, do_compression=compress, oned_as="row")
     return path
