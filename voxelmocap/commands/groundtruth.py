@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(files.trial, "the mocap covers no synchronised frame (the .ofs files "
                                       f"put frame 1 at mocap frame {seq.common_time:.3f})")
     write_body_pose_xml(args.out, gt.frames, gt.endpoints, gt.enabled, attributes=gt.attributes)
-    print(f"{seq.subject}/{seq.name}: {files.describe()}, mocap frames {poses.positions[0]:.3f}"
-          f"… every {seq.common_scaling:.4f}")
+    print(f"{seq.subject}/{seq.name}: {files.describe()}; frame 1 is mocap position "
+          f"{seq.common_time:.3f}, {seq.common_scaling:.4f} mocap frames per frame")
     print(f"wrote {args.out}: {summary(poses, gt)}")
     return 0
