@@ -45,6 +45,7 @@ __all__ = [
     "find_mocap_files",
     "limb_parameters",
     "marker_index",
+    "mocap_ground_truth",
     "poses_to_body_pose",
     "read_mocap_mat",
     "read_mp",

@@ -17,8 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "FRAMES",
     "HEAD_LENGTH",
+    "LENGTH_PAIRS",
     "SEGMENT_NAMES",
+    "VALIDITY_MARKERS",
     "MarkerIndex",
     "ToolkitPoses",
     "quat_from_matrix",
