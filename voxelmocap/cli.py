@@ -24,6 +24,7 @@ COMMANDS: dict[str, str] = {
     "info": "info",
     "track": "track",
     "evaluate": "evaluate",
+    "groundtruth": "groundtruth",
     "sweep": "sweep",
     "overlay": "overlay",
     "dump": "dump",

@@ -93,7 +93,8 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
     outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
                              frames=frames, cameras=cameras, seed=cell.seed, progress=False,
                              overwrite=True, log=lambda *_: None)
-    scored = score_against(outcome.result_path, seq.ground_truth_path, delta=delta)
+    scored = score_against(outcome.result_path, seq.ground_truth_path or seq.ground_truth(),
+                           delta=delta)
     row = dict(asdict(cell), seed=cell.seed, cameras=",".join(cameras),
                frames=scored.scores.frames, mu_mm=scored.scores.mu_mm,
                sigma_mm=scored.scores.sigma_mm, mmtp_mm=scored.scores.mmtp_mm,
@@ -191,7 +192,7 @@ def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particle
     from .io.humaneva import Dataset
 
     seq = Dataset(dataset).sequence(subject, sequence)
-    if seq.ground_truth_path is None:
+    if seq.ground_truth_source is None:
         raise InputError(f"{subject}/{sequence}", "a sweep needs ground truth to score cells")
     if max(cameras) > len(seq.camera_names):
         raise InputError("--cameras", f"at most {len(seq.camera_names)} cameras in this sequence")

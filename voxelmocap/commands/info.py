@@ -46,6 +46,7 @@ def describe(dataset, subject=None, sequence=None) -> list[str]:
                 lines.append(f"      {cam:<4s} {w}x{h}  video frames {counts[cam]:>6d}  "
                              f"ofs ({im_st:g}, {mc_st:g}, {mc_sc:g})  start {seq.starts[cam]:>4d}"
                              f"  backgrounds {n_bg}")
+            lines.append(f"      ground truth source: {seq.ground_truth_source or 'none'}")
             gt = seq.ground_truth()
             if gt is None:
                 lines.append("      ground truth: none")

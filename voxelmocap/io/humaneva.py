@@ -7,6 +7,8 @@ Layout (``HUMANEVA.md`` §1)::
     <root>/<Subject>/Image_Data/<Action>_<Trial>_(<CAM>).avi      (or a folder of numbered images)
     <root>/<Subject>/Sync_Data/<Action>_<Trial>_(<CAM>).ofs
     <root>/<Subject>/Mocap_Data/<Action>_<Trial>.xml              (ground truth, body_pose XML)
+    <root>/<Subject>/Mocap_Data/<Action>_<Trial>.mat, Static.mat, <Subject>.mp
+                                                     (or raw mocap: see humaneva_mocap.py)
     <root>/<Subject>/Mocap_Data/<Subject>_body.toml               (subject dimensions, optional)
 
 Folder names are matched case-insensitively (``Calibration_Data`` / ``Calibration_DATA``).
@@ -505,10 +507,26 @@ class Sequence:
                 return p
         return None
 
+    @property
+    def ground_truth_source(self) -> str | None:
+        """Where :meth:`ground_truth` comes from: ``"body_pose XML <file>"``, ``"raw mocap
+        <Action>_<Trial>.mat + <Subject>.mp"`` (:mod:`voxelmocap.io.humaneva_mocap`) or None."""
+        if self.ground_truth_path is not None:
+            return f"body_pose XML {self.ground_truth_path.name}"
+        from .humaneva_mocap import find_mocap_files
+
+        files = find_mocap_files(self.subject_dir, self.subject, self.name)
+        return None if files is None else files.describe()
+
     def ground_truth(self) -> BodyPoseSequence | None:
-        """The ground-truth poses (body_pose XML), or None when the sequence has none."""
+        """The ground-truth poses: the body_pose XML, else computed from the raw mocap files as
+        the toolkit does (``mocap_stream``, synchronised by this sequence's ``.ofs``), else None."""
         path = self.ground_truth_path
-        return None if path is None else read_body_pose_xml(path)
+        if path is not None:
+            return read_body_pose_xml(path)
+        from .humaneva_mocap import sequence_ground_truth
+
+        return sequence_ground_truth(self)
 
     @property
     def body_file(self) -> Path | None:

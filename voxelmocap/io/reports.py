@@ -23,7 +23,7 @@ from ..errors import InputError
 from ..evaluation import SequenceScores, evaluate_sequence
 from ..joints import LANDMARK_NAMES
 from ._atomic import atomic_write_text, ensure_output_dir
-from .body_pose_xml import read_body_pose_xml
+from .body_pose_xml import BodyPoseSequence, read_body_pose_xml
 
 __all__ = [
     "EvaluatedSequence",
@@ -75,9 +75,16 @@ def read_poses(path):
 
 
 def score_against(result_path, gt_path, *, delta: float, subject="", action="", trial=""):
-    """Match a result with a ground-truth XML by frame number and score it."""
+    """Match a result with the ground truth by frame number and score it.
+
+    ``gt_path`` is a body_pose XML file or an already loaded :class:`BodyPoseSequence` (e.g. the
+    ground truth computed from raw mocap by :meth:`voxelmocap.io.humaneva.Sequence.ground_truth`).
+    """
     frames, est, est_enabled, complete = read_poses(result_path)
-    gt = read_body_pose_xml(gt_path)
+    if isinstance(gt_path, BodyPoseSequence):
+        gt, gt_path = gt_path, gt_path.attributes.get("Source", "ground truth")
+    else:
+        gt = read_body_pose_xml(gt_path)
     if gt.endpoints.shape[-1] != 3:
         raise InputError(gt_path, "ground truth holds 2-D poses")
     rows = gt.index_of(frames)
@@ -118,9 +125,10 @@ def evaluate_files(run_dir, dataset_root, *, delta: float = 100.0) -> list[Evalu
         subject = path.parent.name
         name = path.stem
         seq = dataset.sequence(subject, name)
-        if seq.ground_truth_path is None:
+        gt = seq.ground_truth()  # the body_pose XML, or computed from the raw mocap files
+        if gt is None:
             raise InputError(path, f"the data set has no ground truth for {subject}/{name}")
-        out.append(score_against(path, seq.ground_truth_path, delta=delta, subject=seq.subject,
+        out.append(score_against(path, gt, delta=delta, subject=seq.subject,
                                  action=seq.action, trial=seq.trial))
     return out
 
