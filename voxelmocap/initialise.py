@@ -26,6 +26,7 @@ fit as well. The filter's first frame does the rest.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,14 +101,16 @@ def _right_of(yaw: float) -> np.ndarray:
 
 
 def _candidate_yaws(feet: np.ndarray, hands: np.ndarray, n_ring: int) -> list[float]:
-    yaws = list(np.linspace(-np.pi, np.pi, n_ring, endpoint=False))
+    # The line between the feet (hands) is across the body: facing is one of its two normals.
+    # The last stage of the fit frees the heading, so a ring of headings is only the fallback.
+    yaws: list[float] = []
     for pair in (feet, hands):
         if len(pair) == 2:
             lateral = (pair[1] - pair[0]) * np.array([1.0, 1.0, 0.0])
             if np.linalg.norm(lateral) > 1e-6:
                 facing = np.cross([0.0, 0.0, 1.0], lateral)
                 yaws += [_yaw_of_facing(facing), _yaw_of_facing(-facing)]
-    return yaws
+    return yaws or list(np.linspace(-np.pi, np.pi, n_ring, endpoint=False))
 
 
 def _to_segment(point, a, b):
@@ -225,25 +228,28 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
     height = float(model.dimensions.height)
     tips = np.asarray(ex.points, dtype=float).reshape(-1, 3)
     by_height = np.argsort(tips[:, 2], kind="stable")
-    below = [i for i in by_height if tips[i, 2] < ex.centre[2] - 0.25 * height]
-    feet_idx = below[:2]
-    others = [i for i in range(len(tips)) if i not in feet_idx]
-    # Head candidates: tips above the trunk, the one closest to the vertical through it first
-    # (a raised hand is usually off to the side).
-    above = [i for i in others if tips[i, 2] > ex.centre[2]]
-    head_choices = sorted(above, key=lambda i: np.hypot(*(tips[i, :2] - ex.centre[:2]))) or [None]
+    below = [int(i) for i in by_height if tips[i, 2] < ex.centre[2] - 0.25 * height]
+    # Feet: pairs among the three lowest tips (a visual hull often grows a ghost tip between
+    # the legs, where no camera sees the gap).
+    feet_choices = [list(c) for c in itertools.combinations(below[:3], 2)] or [below[:1]]
     standing = model.default_state()
     pelvis_height = standing[2]
     out: list[Hypothesis] = []
     labellings = []
-    for head in head_choices[:2]:
-        rest = [i for i in others if i != head]
-        labellings.append((head, rest[:2]))
-        if rest:
-            # Arms that hang along the body leave no tips of their own: what is left may be
-            # bumps (an elbow, a hip), so try the arms neutral as well.
-            labellings.append((head, []))
-    for head, hands_idx in labellings:
+    for feet_idx in feet_choices:
+        others = [i for i in range(len(tips)) if i not in below[:3]]
+        # Head candidates: tips above the trunk, the one closest to the vertical through it
+        # first (a raised hand is usually off to the side).
+        above = [i for i in others if tips[i, 2] > ex.centre[2]]
+        heads = sorted(above, key=lambda i: np.hypot(*(tips[i, :2] - ex.centre[:2]))) or [None]
+        for head in heads[:2]:
+            rest = [i for i in others if i != head]
+            labellings.append((feet_idx, head, rest[:2]))
+            if rest:
+                # Arms that hang along the body leave no tips of their own: what is left may
+                # be bumps (an elbow, a hip), so try the arms neutral as well.
+                labellings.append((feet_idx, head, []))
+    for feet_idx, head, hands_idx in labellings:
         feet, hands = tips[feet_idx], tips[hands_idx]
         for yaw in _candidate_yaws(feet, hands, n_ring):
             right = _right_of(yaw)
