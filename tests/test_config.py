@@ -62,6 +62,14 @@ def test_missing_config_file(tmp_path):
         load_config(tmp_path / "none.toml")
 
 
+def test_config_that_is_not_utf8(tmp_path):
+    path = tmp_path / "latin1.toml"
+    path.write_bytes("# réglages\n[filter]\nlayers = 3\n".encode("latin-1"))
+    with pytest.raises(InputError, match="not UTF-8 text") as info:
+        load_config(path)
+    assert str(info.value).startswith(str(path))
+
+
 def test_bool_is_not_an_integer():
     with pytest.raises(InputError, match="integer"):
         config_from_dict({"filter": {"layers": True}})

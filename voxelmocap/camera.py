@@ -482,19 +482,9 @@ def _read_sizes(path: Path) -> dict[str, tuple[int, int]]:
 
 
 def _load_toml(path: Path) -> dict:
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(path, "file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"invalid TOML ({exc})") from None
-    except OSError as exc:
-        raise InputError(path, f"cannot read ({exc.__class__.__name__})") from None
+    from .io.toml import read_toml
+
+    return read_toml(path)
 
 
 # ---------------------------------------------------------------------- anipose / Pose2Sim TOML

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .io.toml import dumps_toml, parse_toml, read_toml
 
 __all__ = [
     "FilterConfig",
@@ -231,30 +232,18 @@ def config_to_dict(config) -> dict:
 
 def config_to_toml(config) -> str:
     """TOML text of a config (the form stored with results)."""
-    import tomli_w
-
-    return tomli_w.dumps(config_to_dict(config))
+    return dumps_toml(config_to_dict(config))
 
 
 def config_from_toml(text: str, source="config") -> TrackConfig:
     """Build and validate a :class:`TrackConfig` from TOML text."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"invalid TOML ({exc})") from None
-    return config_from_dict(data, source)
+    return config_from_dict(parse_toml(text, source), source)
 
 
 def load_config(path) -> TrackConfig:
     """Read a TOML config file; keys not given keep their defaults."""
-    from .camera import _load_toml
-
     path = Path(path)
-    return config_from_dict(_load_toml(path), source=str(path))
+    return config_from_dict(read_toml(path), source=str(path))
 
 
 def with_overrides(config: TrackConfig, **overrides) -> TrackConfig:

@@ -29,11 +29,6 @@ import numpy as np
 
 from ..errors import InputError
 
-try:  # Python ≥ 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
 __all__ = ["PART_NAMES", "BodyDimensions", "Part", "frustum_volume"]
 
 FORMAT = "voxelmocap-body-1"
@@ -158,15 +153,10 @@ class BodyDimensions:
             Naming the file and the key: unreadable file, wrong format, a missing
             ``[lengths_mm]`` key, a non-positive, non-finite or wrongly typed value, an unknown key.
         """
+        from ..io.toml import read_toml
+
         path = Path(path)
-        try:
-            with open(path, "rb") as fh:
-                data = tomllib.load(fh)
-        except OSError as exc:
-            raise InputError(path, f"cannot read body file ({exc.strerror or exc})") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(path, f"not valid TOML ({exc})") from None
-        return cls.from_dict(data, source=str(path))
+        return cls.from_dict(read_toml(path), source=str(path))
 
     @classmethod
     def from_dict(cls, data: dict, *, source: str = "body file") -> BodyDimensions:

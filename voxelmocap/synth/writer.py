@@ -273,7 +273,7 @@ BODY_TOLERANCE = 2.0
 
 def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -> None:
     """Refuse to give a subject that has other sequences a body file from a different skeleton."""
-    import tomllib
+    from ..io.toml import read_toml
 
     path = sdir / "Mocap_Data" / f"{sdir.name}_body.toml"
     if not path.exists():
@@ -283,8 +283,8 @@ def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -
     if not others:
         return
     try:
-        old = tomllib.loads(path.read_text())["lengths_mm"]
-    except (OSError, tomllib.TOMLDecodeError, KeyError):
+        old = read_toml(path)["lengths_mm"]
+    except (InputError, KeyError):
         raise InputError(path, "unreadable subject body file; remove it or choose another "
                                "--subject") from None
     for key in BODY_KEYS:
