@@ -7,16 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from voxelmocap.camera import Camera, Rig
+from voxelmocap.camera import Camera
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
+from voxelmocap.io.calibration import read_rig
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 
 
 @pytest.fixture(scope="module")
 def rig():
-    return Rig.from_folder(RIG_DIR)
+    return read_rig(RIG_DIR)
 
 
 def _views(rig, points):

@@ -25,8 +25,8 @@ serial; see ``docs/benchmarks.md``). :func:`carve` keeps the last
 two carvers in a cache. :func:`carve_reference` is the plain NumPy implementation (straight through
 ``Camera.project``) that the tests compare against voxel for voxel.
 
->>> from voxelmocap.camera import Rig
->>> rig = Rig.from_folder("calib/humaneva_i_like")                      # doctest: +SKIP
+>>> from voxelmocap.io.calibration import read_rig
+>>> rig = read_rig("calib/humaneva_i_like")                      # doctest: +SKIP
 >>> grid = VoxelGrid.from_rig(rig, 20.0)                                # doctest: +SKIP
 >>> carver = Carver(rig, grid)                                          # doctest: +SKIP
 >>> occupancy = carver.carve(masks)          # masks: (7, 480, 640) bool  # doctest: +SKIP

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import tomllib
 
-from voxelmocap.camera import Rig
 from voxelmocap.cli import main
 from voxelmocap.errors import InputError
+from voxelmocap.io.calibration import read_rig
 from voxelmocap.io.humaneva import Dataset, read_ofs, sync_starts
 from voxelmocap.joints import endpoints_to_landmarks
 from voxelmocap.synth import default_rig_path, generate
@@ -128,7 +128,7 @@ def test_packaged_rig_is_the_calib_folder():
     assert names == sorted(p.name for p in pkg.iterdir())
     for name in names:
         assert (src / name).read_bytes() == (pkg / name).read_bytes(), name
-    assert Rig.from_folder(pkg).names == ["C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"]
+    assert read_rig(pkg).names == ["C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"]
 
 
 def _nothing_written(out: Path) -> bool:

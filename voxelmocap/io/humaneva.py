@@ -35,6 +35,7 @@ from ..joints import endpoints_to_landmarks
 from ._atomic import atomic_write_text
 from ._files import read_text_file
 from .body_pose_xml import BodyPoseSequence, read_body_pose_xml, write_body_pose_xml
+from .calibration import read_rig
 
 __all__ = [
     "BodyPoseSequence",
@@ -355,7 +356,7 @@ class Sequence:
         cal_dir = _find_dir(self.subject_dir, "Calibration_Data")
         if cal_dir is None:
             raise InputError(self.subject_dir, "no Calibration_Data folder")
-        return Rig.from_folder(cal_dir, names=self.camera_names)
+        return read_rig(cal_dir, names=self.camera_names)
 
     # ------------------------------------------------------------------ images
     def video_path(self, camera: str) -> Path:

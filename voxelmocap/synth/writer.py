@@ -152,8 +152,8 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     """
     from tqdm import tqdm
 
-    from ..camera import Rig
     from ..io.body_pose_xml import write_body_pose_xml
+    from ..io.calibration import read_rig, write_rig
     from ..io.humaneva import write_ofs
     from .render import Renderer
 
@@ -162,7 +162,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     _check_options(frames, fps, noise, trial, subject, action, codec, background_frames)
     frames, trial = int(frames), int(trial)
     if rig is None or isinstance(rig, (str, os.PathLike)):
-        rig = Rig.from_folder(rig if rig is not None else default_rig_path())
+        rig = read_rig(rig if rig is not None else default_rig_path())
     if cameras:
         rig = rig.select(list(cameras))
     out_dir = Path(out_dir)
@@ -207,7 +207,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         sdir = tmp / subject
-        rig.to_folder(sdir / "Calibration_Data")
+        write_rig(rig, sdir / "Calibration_Data")
         for sub in ("Image_Data", "Sync_Data", "Mocap_Data"):
             (sdir / sub).mkdir(parents=True, exist_ok=True)
         renderer = Renderer(rig, scene_seed=scene_seed)
