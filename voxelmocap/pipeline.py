@@ -220,7 +220,10 @@ def body_model_for(seq, gt=None):
     from .body import BodyModel
 
     if seq.body_file is not None:
-        return BodyModel.from_file(seq.body_file), f"subject body file {seq.body_file.name}"
+        from .io.body_file import read_body_file
+
+        return (BodyModel(read_body_file(seq.body_file)),
+                f"subject body file {seq.body_file.name}")
     if gt is not None and gt.enabled.all(axis=1).any():
         from .joints import endpoints_to_landmarks
 

@@ -57,9 +57,9 @@ def describe(dataset, subject=None, sequence=None) -> list[str]:
                              f"{gt.frames.max()}), {n_valid} fully enabled")
             body = seq.body_file
             if body is not None:
-                from ..body import BodyModel
+                from ..io.body_file import read_body_file
 
-                BodyModel.from_file(body)  # validates it
+                read_body_file(body)  # validates it
             lines.append(f"      subject body file: {body.name if body else 'none'}")
     if bdir is None:
         lines.append("  no Background folder")

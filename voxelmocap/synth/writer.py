@@ -152,6 +152,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     """
     from tqdm import tqdm
 
+    from ..io.body_file import write_body_file
     from ..io.body_pose_xml import write_body_pose_xml
     from ..io.calibration import read_rig, write_rig
     from ..io.humaneva import write_ofs
@@ -198,7 +199,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     height = (source.height if isinstance(source, ProceduralSource)
               else stature_estimate(truth))
     shape = BodyShape.for_subject(subject, height)
-    body = subject_body(truth, shape, subject, height=height)
+    body = subject_body(truth, shape, height=height)
     _check_body_consistency(out_dir / subject, seq, body, overwrite)
 
     created = not out_dir.exists()
@@ -254,9 +255,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
                  "Seed": seed, "FrameRate": f"{fps:g}"}
         write_body_pose_xml(sdir / "Mocap_Data" / f"{seq}.xml", np.arange(1, frames + 1),
                             endpoints_from_canonical(truth), attributes=attrs)
-        import tomli_w
-
-        (sdir / "Mocap_Data" / f"{subject}_body.toml").write_text(tomli_w.dumps(body))
+        write_body_file(sdir / "Mocap_Data" / f"{subject}_body.toml", body, subject)
         _remove_sequence(out_dir / subject, seq)
         _move_into(tmp, out_dir)
     finally:
@@ -271,9 +270,9 @@ BODY_KEYS = ("upper_arm", "forearm", "thigh", "shin")
 BODY_TOLERANCE = 2.0
 
 
-def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -> None:
+def _check_body_consistency(sdir: Path, seq: str, body, overwrite: bool) -> None:
     """Refuse to give a subject that has other sequences a body file from a different skeleton."""
-    from ..io.toml import read_toml
+    from ..io.body_file import read_body_file
 
     path = sdir / "Mocap_Data" / f"{sdir.name}_body.toml"
     if not path.exists():
@@ -283,13 +282,13 @@ def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -
     if not others:
         return
     try:
-        old = read_toml(path)["lengths_mm"]
-    except (InputError, KeyError):
-        raise InputError(path, "unreadable subject body file; remove it or choose another "
-                               "--subject") from None
+        old = read_body_file(path)
+    except InputError as exc:
+        raise InputError(path, f"unreadable subject body file ({exc.problem}); remove it or "
+                               "choose another --subject") from None
     for key in BODY_KEYS:
-        a = np.asarray(old.get(key, [np.nan, np.nan]), dtype=float)
-        b = np.asarray(body["lengths_mm"][key], dtype=float)
+        a = np.asarray(getattr(old, key), dtype=float)
+        b = np.asarray(getattr(body, key), dtype=float)
         if a.shape != b.shape or not np.all(np.abs(a - b) <= BODY_TOLERANCE):
             raise InputError(path, f"subject {sdir.name} already has other sequences with "
                                    f"another body ({key} {a.tolist()} mm, this motion "
