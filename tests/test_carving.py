@@ -12,15 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from voxelmocap.camera import Camera
-from voxelmocap.carving import (
-    Carver,
-    EmptySilhouetteWarning,
-    carve,
-    carve_reference,
-    fov_radius,
-    visible,
-)
+from voxelmocap.camera import Camera, fov_radius, visible
+from voxelmocap.carving import Carver, EmptySilhouetteWarning, carve, carve_reference
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
 from voxelmocap.io.calibration import read_rig

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .camera import visible
 from .errors import InputError
 
 __all__ = ["VoxelGrid", "available_memory"]
@@ -106,7 +107,7 @@ class VoxelGrid:
         The floor (Z = 0) is sampled on a square lattice of pitch ``step`` around the cameras; a
         lattice point belongs to the capture area when both it and the point ``height`` above it
         are seen by at least ``min_views`` cameras (the carver's rule,
-        :func:`voxelmocap.carving.visible`: in front, within the field of view, rounding into the
+        :func:`voxelmocap.camera.visible`: in front, within the field of view, rounding into the
         image). The grid is
         the axis-aligned box over the capture area's bounding rectangle (grown by ``margin``), from
         the floor to ``height``, with its corner at the floor (x, y snapped down to multiples of
@@ -156,8 +157,6 @@ class VoxelGrid:
         top = floor + np.array([0.0, 0.0, float(height)])
         # the carver's visibility rule: in front, inside the trusted field of view (the lens
         # polynomial folds far off-axis points back into the image), rounding into the image
-        from .carving import visible
-
         views = np.zeros(len(floor), dtype=np.int32)
         for cam in cameras:
             views += visible(cam, floor)[2] & visible(cam, top)[2]
