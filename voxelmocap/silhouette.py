@@ -203,25 +203,6 @@ def _is_gray(image) -> bool:
         np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 0], img[..., 2]))
 
 
-def read_video_frames(path, *, max_frames: int | None = None):
-    """Decode the frames of a video with OpenCV (generator of ``(H, W, 3)`` uint8 BGR images)."""
-    cap = cv2.VideoCapture(str(path))
-    if not cap.isOpened():
-        raise InputError(path, "cannot open video")
-    try:
-        n = 0
-        while max_frames is None or n < max_frames:
-            ok, frame = cap.read()
-            if not ok:
-                break
-            n += 1
-            yield frame
-    finally:
-        cap.release()
-    if n == 0:
-        raise InputError(path, "video has no decodable frames")
-
-
 # ---------------------------------------------------------------------- Gaussian model
 class GaussianBackground:
     """Equal-weight mixture of per-pixel diagonal Gaussians (HumanEva toolkit model).
@@ -324,29 +305,6 @@ class GaussianBackground:
         if not means:
             raise InputError("background", "no background sets")
         return cls(means, variances, min_variance=min_variance)
-
-    @classmethod
-    def from_videos(cls, paths: Iterable, *, min_variance: float = 1e-3,
-                    grayscale: bool | None = None,
-                    max_frames: int | None = None) -> GaussianBackground:
-        """Mixture model with one component per background video (as the toolkit).
-
-        Parameters
-        ----------
-        paths : iterable of path
-            Background videos of one camera (e.g. ``Background_*_(C1).avi``).
-        min_variance : float
-            Floor of the variances.
-        grayscale : bool, optional
-            Default: detected from the first frame (BW cameras decode as three equal channels).
-        max_frames : int, optional
-            Use at most this many frames per video.
-        """
-        paths = list(paths)
-        if not paths:
-            raise InputError("background", "no background videos")
-        sets = (read_video_frames(p, max_frames=max_frames) for p in paths)
-        return cls.fit_sets(sets, min_variance=min_variance, grayscale=grayscale)
 
     def log_likelihood(self, image) -> tuple[np.ndarray, np.ndarray]:
         """Background log-likelihood per pixel and the most likely component.
