@@ -1,8 +1,11 @@
 import pytest
 
 from voxelmocap.config import (
+    MeasurementConfig,
+    SilhouetteConfig,
     TrackConfig,
     config_from_dict,
+    config_from_toml,
     config_to_toml,
     load_config,
     with_overrides,
@@ -26,6 +29,57 @@ def test_toml_round_trip(tmp_path):
     assert load_config(path) == cfg
 
 
+def test_silhouette_settings_are_typed_and_round_trip():
+    text = ("[measurement.silhouette]\nmethod = 'mog2'\nmin_area = 12\n"
+            "shadow_brightness = [0.3, 0.9]\n"
+            "[measurement.silhouette.camera_risk]\nBW1 = 1e6\nC2 = 3\n")
+    cfg = config_from_toml(text, "cfg.toml")
+    sil = cfg.measurement.silhouette
+    assert isinstance(sil, SilhouetteConfig)
+    assert sil.method == "mog2" and sil.min_area == 12 and sil.shadow_brightness == (0.3, 0.9)
+    assert sil.camera_risk == {"BW1": 1e6, "C2": 3.0} and isinstance(sil.camera_risk["C2"], float)
+    assert sil.risk_for("BW1") == 1e6 and sil.risk_for("C1") == 1.0
+    assert sil.var_threshold == SilhouetteConfig().var_threshold  # not given: the default
+    # the stored text reads back to the same config, and writes the same text again
+    stored = config_to_toml(cfg)
+    assert "[measurement.silhouette.camera_risk]" in stored
+    assert config_from_toml(stored) == cfg and config_to_toml(config_from_toml(stored)) == stored
+    # built in Python, the same values give the same config (lists and ints normalised)
+    direct = SilhouetteConfig(method="mog2", min_area=12, shadow_brightness=[0.3, 0.9],
+                              camera_risk={"BW1": 1e6, "C2": 3})
+    assert TrackConfig(measurement=MeasurementConfig(silhouette=direct)) == cfg
+
+
+def test_overrides_reach_nested_tables():
+    base = with_overrides(TrackConfig(), **{"measurement.silhouette.min_area": 7})
+    cfg = with_overrides(base, **{"measurement.silhouette.method": "mog2", "filter.layers": 2})
+    assert cfg.measurement.silhouette.method == "mog2" and cfg.filter.layers == 2
+    assert cfg.measurement.silhouette.min_area == 7  # the other settings are kept
+    with pytest.raises(InputError, match=r"^options: key 'measurement\.silhouette\.method'"):
+        with_overrides(cfg, **{"measurement.silhouette.method": "knn"})
+
+
+def test_default_config_text_round_trips_exactly():
+    text = config_to_toml(TrackConfig())
+    assert config_to_toml(config_from_toml(text)) == text
+    assert config_from_toml(text) == TrackConfig()
+
+
+@pytest.mark.parametrize("kwargs, key", [
+    ({"method": "magic"}, "method"),
+    ({"risk": -1.0}, "risk"),
+    ({"risk": True}, "risk"),
+    ({"min_variance": 0.0}, "min_variance"),
+    ({"camera_var_threshold": {"C1": float("nan")}}, "camera_var_threshold.C1"),
+    ({"shadow_ncc": 2.0}, "shadow_ncc"),
+    ({"open_radius": -1}, "open_radius"),
+    ({"min_area": 2.5}, "min_area"),
+])
+def test_silhouette_config_built_directly_is_validated(kwargs, key):
+    with pytest.raises(InputError, match=f"'measurement.silhouette.{key}'"):
+        SilhouetteConfig(**kwargs)
+
+
 def test_partial_file_keeps_defaults(tmp_path):
     path = tmp_path / "cfg.toml"
     path.write_text("[filter]\nparticles = 200\n")
@@ -46,7 +100,17 @@ def test_partial_file_keeps_defaults(tmp_path):
         ("[filter]\nsurvival = 1.5\n", "survival"),
         ("[filter\n", "invalid TOML"),
         ("[measurement]\ngrid_shape = [10, 10, 10]\n", "go together"),
-        ("[measurement.silhouette]\nrisky = 3\n", "unknown silhouette setting"),
+        ("[measurement.silhouette]\nrisky = 3\n", "unknown key 'measurement.silhouette.risky'"),
+        ("[measurement.silhouette]\nrisk = 0\n", "'measurement.silhouette.risk' must be > 0"),
+        ("[measurement.silhouette]\nmethod = 'knn'\n", "'measurement.silhouette.method' must be one"),
+        ("[measurement.silhouette.camera_risk]\nBW1 = -2.0\n",
+         "'measurement.silhouette.camera_risk.BW1' must be > 0"),
+        ("[measurement.silhouette.camera_risk]\nBW1 = 'high'\n",
+         "'measurement.silhouette.camera_risk.BW1' must be a number"),
+        ("[measurement.silhouette]\ncamera_risk = 3\n",
+         "'measurement.silhouette.camera_risk' must be a table"),
+        ("[measurement.silhouette]\nshadow_brightness = [0.9, 0.5]\n", "shadow_brightness"),
+        ("[measurement.silhouette]\nmog2_learning_rate = 2.0\n", "mog2_learning_rate"),
     ],
 )
 def test_bad_config_names_file_and_key(tmp_path, text, message):

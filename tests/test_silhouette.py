@@ -221,15 +221,24 @@ def test_clean_mask_closing_does_not_stick_to_border():
     assert np.array_equal(out, m)
 
 
+def test_direct_api_defaults_are_the_configs():
+    # constant frames have zero variance: the model's variances are the floor, which by default
+    # is the configuration's measured 4 grey levels² (not the toolkit's 1e-3)
+    frames = [np.full((6, 8, 3), 100, np.uint8)] * 3
+    bg = GaussianBackground.fit(frames)
+    assert SilhouetteConfig().min_variance == 4.0
+    assert bg.min_variance == 4.0 and np.all(bg.variances == 4.0)
+    assert np.all(GaussianBackground.fit_sets([frames]).variances == 4.0)
+    assert np.all(GaussianBackground.fit(frames, min_variance=1e-3).variances == np.float32(1e-3))
+    built = build_backgrounds(SilhouetteConfig(), ["C1"], {"C1": frames})["C1"]
+    assert np.array_equal(built.variances, bg.variances)
+
+
 def test_bad_input():
     with pytest.raises(InputError, match="method"):
         SilhouetteConfig(method="magic")
     with pytest.raises(InputError, match="risk"):
         SilhouetteConfig(risk=-1.0)
-    with pytest.raises(InputError, match="unknown silhouette"):
-        SilhouetteConfig.from_dict({"rsik": 1.0})
-    cfg = SilhouetteConfig(camera_risk={"BW1": 1e6})
-    assert SilhouetteConfig.from_dict(cfg.to_dict()) == cfg
     bg = GaussianBackground.fit([np.zeros((10, 12, 3), np.uint8)])
     with pytest.raises(InputError, match="differs"):
         bg.foreground(np.zeros((12, 10, 3), np.uint8))

@@ -155,11 +155,11 @@ class MeasurementRunner:
     def __init__(self, seq, config: TrackConfig, log=print):
         from .grid import VoxelGrid
         from .measurement import MeasurementStage
-        from .silhouette import SilhouetteConfig, build_backgrounds
+        from .silhouette import build_backgrounds
 
         mc = config.measurement
         self.config = mc
-        silhouette = SilhouetteConfig.from_dict(mc.silhouette, source="measurement.silhouette")
+        silhouette = mc.silhouette
         rig = seq.rig
         for key in ("camera_risk", "camera_var_threshold"):
             unknown = sorted(set(getattr(silhouette, key)) - set(seq.all_camera_names))
