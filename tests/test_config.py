@@ -96,7 +96,17 @@ def test_partial_file_keeps_defaults(tmp_path):
         ("[filter]\nparticles = 2.5\n", "'filter.particles' must be an integer"),
         ("[filter]\nstrategy = 'pso'\n", "'filter.strategy' must be one of"),
         ("[likelihood]\nvariances = [0.1, 0.1]\n", "must have 4 values"),
-        ("[measurement]\nvoxel_size = -5\n", "'voxel_size' must be > 0"),
+        ("[measurement]\nvoxel_size = -5\n",
+         r"key 'measurement\.voxel_size' must be between 1 and 250 mm, got -5"),
+        ("[measurement]\nvoxel_size = 1e9\n", r"'measurement\.voxel_size' .* got 1e\+09"),
+        ("[measurement]\nvoxel_size = 0.5\n", "'measurement.voxel_size' must be between"),
+        ("[measurement]\nvoxel_size = 251\n", "'measurement.voxel_size' must be between"),
+        ("[measurement]\nsurface_sigma = 0\n", "'measurement.surface_sigma' must be > 0"),
+        ("[measurement]\nsurface_sigma = 50.0\n", "'measurement.surface_sigma' must be > 0 and <= 10"),
+        ("[measurement]\nbackground_frames = 0\n", "'measurement.background_frames' must be >= 1"),
+        ("[measurement]\nmin_views = 0\n", "'measurement.min_views' must be >= 1"),
+        ("[measurement]\ngrid_origin = [0.0, 0.0, 0.0]\ngrid_shape = [100, 100, 2]\n",
+         r"'measurement\.grid_shape' must be at least 8 voxels along every axis, got \[100, 100, 2\]"),
         ("[filter]\nsurvival = 1.5\n", "survival"),
         ("[filter\n", "invalid TOML"),
         ("[measurement]\ngrid_shape = [10, 10, 10]\n", "go together"),
@@ -137,3 +147,17 @@ def test_config_that_is_not_utf8(tmp_path):
 def test_bool_is_not_an_integer():
     with pytest.raises(InputError, match="integer"):
         config_from_dict({"filter": {"layers": True}})
+
+
+@pytest.mark.parametrize("text", ["[measurement]\nvoxel_size = 1e9\n", "[measurement]\nvoxel_size = 0\n"])
+def test_absurd_voxel_size_stops_track_with_one_line(tiny_dataset, tmp_path, capsys, text):
+    from voxelmocap.cli import main
+
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text(text)
+    out = tmp_path / "run"
+    assert main(["track", str(tiny_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                 "--frames", "1:2", "--no-progress", "--config", str(cfg), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{cfg}: key 'measurement.voxel_size' must be between" in err[0]
+    assert not out.exists()

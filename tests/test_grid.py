@@ -102,6 +102,17 @@ def test_memory_check_names_the_size():
     assert small.empty(np.float32).shape == (2, 3, 4)
 
 
+def test_from_rig_refuses_grids_too_coarse_to_hold_a_body(rig):
+    # 1000 mm high: 200 mm voxels give 5 layers, 125 mm give exactly 8
+    with pytest.raises(InputError, match=r"^measurement\.voxel_size: 200 mm voxels give a "
+                                         r"\d+x\d+x5 grid .* at least 8 voxels") as info:
+        VoxelGrid.from_rig(rig, 200.0, height=1000.0)
+    assert "\n" not in str(info.value)
+    assert VoxelGrid.from_rig(rig, 125.0, height=1000.0).shape[2] == 8
+    with pytest.raises(InputError, match="at least 8 voxels"):
+        VoxelGrid.from_rig(rig, 1e9)  # the 2 x 2 x 1 grid of the issue
+
+
 def test_from_rig_memory_refusal(rig):
     with pytest.raises(InputError, match="would need"):
         VoxelGrid.from_rig(rig, 1.0, bytes_per_voxel=64)

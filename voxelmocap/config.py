@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .grid import MIN_VOXELS_PER_AXIS
 from .io.toml import dumps_toml, parse_toml, read_toml
 
 __all__ = [
@@ -39,6 +40,16 @@ __all__ = [
     "load_config",
     "with_overrides",
 ]
+
+
+#: Sane voxel edges (mm). Finer than 1 mm is below a pixel's footprint at any capture distance
+#: (≈ 5 mm per pixel at 4 m with HumanEva's lenses) and only costs memory; coarser than 250 mm
+#: cannot hold a body part (limbs are 80–160 mm wide, the torso ≈ 320 mm) and puts fewer than
+#: MIN_VOXELS_PER_AXIS voxels along a 2 m person. The paper works at 10–40 mm.
+VOXEL_SIZE_RANGE = (1.0, 250.0)
+#: Gaussian smoothing of the surface (voxels): beyond 10 voxels the smoothed surface is a blur
+#: wider than the body at the default voxel size.
+MAX_SURFACE_SIGMA = 10.0
 
 
 def _choice(*options, default):
@@ -105,7 +116,7 @@ class SilhouetteConfig:
 class MeasurementConfig:
     """Background subtraction, carving and surface smoothing."""
 
-    voxel_size: float = 20.0  #: voxel edge (mm)
+    voxel_size: float = 20.0  #: voxel edge (mm), within VOXEL_SIZE_RANGE
     #: grid corner (mm) and size (voxels); None derives the floor-standing box seen by the cameras
     grid_origin: tuple[float, float, float] | None = None
     grid_shape: tuple[int, int, int] | None = None
@@ -273,6 +284,8 @@ def _validate(obj, prefix: str, source) -> None:
 
 
 def _check_ranges(obj, prefix: str, source) -> None:
+    if isinstance(obj, MeasurementConfig):
+        _check_measurement(obj, prefix, source)
     positive = {"voxel_size", "surface_sigma", "layers", "particles", "translation_std_mm",
                 "rotation_std_rad", "joint_std_rad", "background_frames"}
     for name in positive:
@@ -285,14 +298,29 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, "key 'filter.noise_decay' must be in (0, 1]")
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
-    if isinstance(obj, MeasurementConfig):
-        if obj.min_views is not None and obj.min_views < 1:
-            raise InputError(source, "key 'measurement.min_views' must be >= 1")
-        if (obj.grid_origin is None) != (obj.grid_shape is None):
-            raise InputError(source, "keys 'measurement.grid_origin' and 'measurement.grid_shape' "
-                                     "go together")
     if isinstance(obj, SilhouetteConfig):
         _check_silhouette(obj, prefix, source)
+
+
+def _check_measurement(obj: MeasurementConfig, prefix: str, source) -> None:
+    def bad(name, rule):
+        raise InputError(source, f"key '{prefix}.{name}' must be {rule}")
+
+    low, high = VOXEL_SIZE_RANGE
+    if not low <= obj.voxel_size <= high:
+        bad("voxel_size", f"between {low:g} and {high:g} mm, got {obj.voxel_size:g}")
+    if not 0 < obj.surface_sigma <= MAX_SURFACE_SIGMA:
+        bad("surface_sigma", f"> 0 and <= {MAX_SURFACE_SIGMA:g} voxels, got {obj.surface_sigma:g}")
+    if obj.background_frames < 1:
+        bad("background_frames", ">= 1")
+    if obj.min_views is not None and obj.min_views < 1:
+        bad("min_views", ">= 1")
+    if (obj.grid_origin is None) != (obj.grid_shape is None):
+        raise InputError(source, f"keys '{prefix}.grid_origin' and '{prefix}.grid_shape' go "
+                                 "together")
+    if obj.grid_shape is not None and min(obj.grid_shape) < MIN_VOXELS_PER_AXIS:
+        bad("grid_shape", f"at least {MIN_VOXELS_PER_AXIS} voxels along every axis, got "
+                          f"{list(obj.grid_shape)}")
 
 
 def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
