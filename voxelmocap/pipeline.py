@@ -303,6 +303,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
 
     config = config or TrackConfig()
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
+    for problem in seq.problems:  # cameras the data set has but this run cannot use
+        log(f"warning: {problem}")
     gt = seq.ground_truth()
     available = seq.frame_numbers
     if gt is not None:

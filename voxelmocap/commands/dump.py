@@ -67,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
     config = _config(args)
     cameras = [c.strip() for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     seq = Dataset(args.dataset).sequence(args.subject, args.sequence, cameras=cameras)
+    for problem in seq.problems:  # cameras the data set has but this run cannot use
+        print(f"warning: {problem}")
     frames = (parse_frame_range(args.frames, seq.frame_numbers) if args.frames
               else seq.frame_numbers)
     if len(frames) == 0:
