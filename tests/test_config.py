@@ -1,4 +1,6 @@
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from voxelmocap.config import (
     MeasurementConfig,
@@ -161,3 +163,23 @@ def test_absurd_voxel_size_stops_track_with_one_line(tiny_dataset, tmp_path, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{cfg}: key 'measurement.voxel_size' must be between" in err[0]
     assert not out.exists()
+
+
+_VALID = config_to_toml(with_overrides(TrackConfig(), **{
+    "measurement.grid_origin": (-2000.0, -2000.0, 0.0), "measurement.grid_shape": (200, 200, 110),
+    "measurement.min_views": 5, "measurement.silhouette.camera_risk": {"BW1": 1e6}})).encode()
+
+
+@settings(max_examples=300, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(cut=st.integers(0, len(_VALID)), junk=st.binary(max_size=8))
+def test_mutated_config_files_load_or_raise_input_error(tmp_path, cut, junk):
+    path = tmp_path / "cfg.toml"
+    path.write_bytes(_VALID[:cut] + junk + _VALID[cut + len(junk):])
+    try:
+        cfg = load_config(path)
+    except InputError as exc:
+        assert str(exc).startswith(str(path)) and "\n" not in str(exc)
+        return
+    assert isinstance(cfg.measurement.silhouette, SilhouetteConfig)
+    assert config_from_toml(config_to_toml(cfg)) == cfg
