@@ -39,6 +39,7 @@ from voxelmocap import _carving_kernels
 from voxelmocap.camera import Camera, Rig
 from voxelmocap.carving import Carver, carve_reference
 from voxelmocap.grid import VoxelGrid
+from voxelmocap.io.calibration import read_rig
 from voxelmocap.measurement import MeasurementStage
 from voxelmocap.silhouette import SilhouetteConfig, build_backgrounds
 from voxelmocap.surface import smooth_surface, surface_voxels
@@ -276,7 +277,7 @@ def main():
     print(f"bench_carving: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
           f"{platform.machine()}, {platform.python_version()}, numpy {np.__version__}, "
           f"load average {open('/proc/loadavg').read().split()[0]}")
-    rig = Rig.from_folder(RIG_DIR)
+    rig = read_rig(RIG_DIR)
     grid = VoxelGrid.from_rig(rig, args.voxel_size)
     bench_carving(args, rig, grid)
     bench_stage(args, rig, grid)

@@ -44,14 +44,14 @@ def main() -> None:
     parser.add_argument("--e2e-runs", type=int, default=1)
     args = parser.parse_args()
 
-    from voxelmocap.camera import Rig
+    from voxelmocap.io.calibration import read_rig
     from voxelmocap.synth import _render_kernels as K
     from voxelmocap.synth import default_rig_path, generate, procedural_points
     from voxelmocap.synth.body_shape import BodyShape, body_primitives
     from voxelmocap.synth.render import _VIEW_CACHE, Renderer, _shadow_discs
     from voxelmocap.synth.scene import AMBIENT, LIGHT, sensor
 
-    rig = Rig.from_folder(default_rig_path())
+    rig = read_rig(default_rig_path())
     # warm-up: numba compilation / cache load, view tables
     tmp = Path(tempfile.mkdtemp(prefix="bench_synth_"))
     generate(tmp / "warm", frames=2, cameras=["C1"], progress=False, background_frames=2)

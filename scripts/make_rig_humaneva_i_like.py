@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from voxelmocap.camera import Camera, Rig
+from voxelmocap.io.calibration import write_rig
 
 OUT = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 SIZE = (640, 480)
@@ -88,7 +89,7 @@ def build_rig() -> Rig:
 
 if __name__ == "__main__":
     rig = build_rig()
-    rig.to_folder(OUT)
+    write_rig(rig, OUT)
     for cam in rig:
         top, foot = cam.project(np.array([[0, 0, 1800.0], [0, 0, 0.0]]))
         print(f"{cam.name:4s} centre {np.round(cam.center).astype(int)}  "

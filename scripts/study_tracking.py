@@ -30,6 +30,7 @@ seed) run are cached as JSON under ``--out`` so that a table can be re-printed o
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import json
 import sys
@@ -217,7 +218,7 @@ def measurements(data: Path, motion: str, config: TrackConfig):
     mc = config.measurement
     key = json.dumps({"voxel": mc.voxel_size, "min_views": mc.min_views,
                       "origin": mc.grid_origin, "shape": mc.grid_shape,
-                      "bg": mc.background_frames, "sil": mc.silhouette,
+                      "bg": mc.background_frames, "sil": dataclasses.asdict(mc.silhouette),
                       "code": source_hash(*MEASUREMENT_SOURCES)}, sort_keys=True)
     cache = data / f"occupancy_{hashlib.sha1(key.encode()).hexdigest()[:10]}.npz"
     if cache.exists():

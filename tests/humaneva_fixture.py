@@ -7,7 +7,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from voxelmocap.camera import Rig
+from voxelmocap.io.calibration import read_rig, write_rig
 from voxelmocap.io.humaneva import write_body_pose_xml, write_ofs
 
 REPO = Path(__file__).resolve().parents[1]
@@ -44,8 +44,8 @@ def make_tiny_dataset(root, *, cameras=("C1", "C2", "BW1"), leads=(5, 7, 6), n_f
     """
     root = Path(root)
     sdir = root / subject
-    rig = Rig.from_folder(RIG_DIR, names=cameras)
-    rig.to_folder(sdir / "Calibration_Data")
+    rig = read_rig(RIG_DIR, names=cameras)
+    write_rig(rig, sdir / "Calibration_Data")
     name = f"{action}_{trial}"
     for cam, lead in zip(cameras, leads, strict=True):
         write_ofs(sdir / "Sync_Data" / f"{name}_({cam}).ofs", lead + 1, 1, mc_sc)

@@ -12,17 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from voxelmocap.camera import Camera, Rig
-from voxelmocap.carving import (
-    Carver,
-    EmptySilhouetteWarning,
-    carve,
-    carve_reference,
-    fov_radius,
-    visible,
-)
+from voxelmocap.camera import Camera, fov_radius, visible
+from voxelmocap.carving import Carver, EmptySilhouetteWarning, carve, carve_reference
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
+from voxelmocap.io.calibration import read_rig
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 SPHERE_C = np.array([150.0, -80.0, 1000.0])
@@ -32,7 +26,7 @@ BOX = (np.array([-400.0, -250.0, 0.0]), np.array([300.0, 350.0, 1700.0]))
 
 @pytest.fixture(scope="module")
 def rig():
-    return Rig.from_folder(RIG_DIR)
+    return read_rig(RIG_DIR)
 
 
 @pytest.fixture(scope="module")

@@ -7,16 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from voxelmocap.camera import Camera, Rig
+from voxelmocap.camera import Camera
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
+from voxelmocap.io.calibration import read_rig
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 
 
 @pytest.fixture(scope="module")
 def rig():
-    return Rig.from_folder(RIG_DIR)
+    return read_rig(RIG_DIR)
 
 
 def _views(rig, points):
@@ -99,6 +100,17 @@ def test_memory_check_names_the_size():
         huge.empty()
     small = VoxelGrid(origin=(0, 0, 0), voxel_size=1.0, shape=(2, 3, 4))
     assert small.empty(np.float32).shape == (2, 3, 4)
+
+
+def test_from_rig_refuses_grids_too_coarse_to_hold_a_body(rig):
+    # 1000 mm high: 200 mm voxels give 5 layers, 125 mm give exactly 8
+    with pytest.raises(InputError, match=r"^measurement\.voxel_size: 200 mm voxels give a "
+                                         r"\d+x\d+x5 grid .* at least 8 voxels") as info:
+        VoxelGrid.from_rig(rig, 200.0, height=1000.0)
+    assert "\n" not in str(info.value)
+    assert VoxelGrid.from_rig(rig, 125.0, height=1000.0).shape[2] == 8
+    with pytest.raises(InputError, match="at least 8 voxels"):
+        VoxelGrid.from_rig(rig, 1e9)  # the 2 x 2 x 1 grid of the issue
 
 
 def test_from_rig_memory_refusal(rig):

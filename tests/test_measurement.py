@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from voxelmocap.camera import Rig
 from voxelmocap.carving import Carver
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
+from voxelmocap.io.calibration import read_rig
 from voxelmocap.measurement import MeasurementStage
 from voxelmocap.silhouette import SilhouetteConfig, build_backgrounds
 from voxelmocap.surface import smooth_surface, surface_voxels
@@ -33,7 +33,7 @@ def _sphere_mask(cam):
 @pytest.fixture(scope="module")
 def scene():
     rng = np.random.default_rng(7)
-    rig = Rig.from_folder(RIG_DIR)
+    rig = read_rig(RIG_DIR)
     grid = VoxelGrid.from_rig(rig, 40.0)
     backgrounds, images, truth = {}, {}, {}
     for cam in rig:

@@ -101,7 +101,7 @@ def finished_run(walk_dataset, tmp_path_factory):
     ("extra", "message"),
     [
         (["--sequence", "Jog_1"], "unknown sequence"),
-        (["--cameras", "C1,C9"], "no sync file for camera"),
+        (["--cameras", "C1,C9"], "unknown camera 'C9' (S1/Walking_1 has C1"),
         (["--frames", "5:99"], "outside the available frames"),
         (["--config", "{bad}"], "unknown key 'filter.particle'"),
         (["--config", "{missing}"], "missing.toml: file not found"),

@@ -221,15 +221,24 @@ def test_clean_mask_closing_does_not_stick_to_border():
     assert np.array_equal(out, m)
 
 
+def test_direct_api_defaults_are_the_configs():
+    # constant frames have zero variance: the model's variances are the floor, which by default
+    # is the configuration's measured 4 grey levels² (not the toolkit's 1e-3)
+    frames = [np.full((6, 8, 3), 100, np.uint8)] * 3
+    bg = GaussianBackground.fit(frames)
+    assert SilhouetteConfig().min_variance == 4.0
+    assert bg.min_variance == 4.0 and np.all(bg.variances == 4.0)
+    assert np.all(GaussianBackground.fit_sets([frames]).variances == 4.0)
+    assert np.all(GaussianBackground.fit(frames, min_variance=1e-3).variances == np.float32(1e-3))
+    built = build_backgrounds(SilhouetteConfig(), ["C1"], {"C1": frames})["C1"]
+    assert np.array_equal(built.variances, bg.variances)
+
+
 def test_bad_input():
     with pytest.raises(InputError, match="method"):
         SilhouetteConfig(method="magic")
     with pytest.raises(InputError, match="risk"):
         SilhouetteConfig(risk=-1.0)
-    with pytest.raises(InputError, match="unknown silhouette"):
-        SilhouetteConfig.from_dict({"rsik": 1.0})
-    cfg = SilhouetteConfig(camera_risk={"BW1": 1e6})
-    assert SilhouetteConfig.from_dict(cfg.to_dict()) == cfg
     bg = GaussianBackground.fit([np.zeros((10, 12, 3), np.uint8)])
     with pytest.raises(InputError, match="differs"):
         bg.foreground(np.zeros((12, 10, 3), np.uint8))
@@ -303,34 +312,39 @@ def test_gaussian_on_generator_masks(synthetic):
     assert tp / found > 0.4, tp / found
 
 
-def test_from_videos_one_component_per_video(tmp_path):
-    scene = Scene(seed=8)
-    paths = []
-    for i in range(2):
-        path = tmp_path / f"Background_{i + 1}_(C1).avi"
-        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 60.0, (W, H))
-        for frame in scene.background_frames(6):
-            writer.write(frame)
-        writer.release()
-        paths.append(path)
+def test_one_component_per_background_video_read_by_the_io_reader(synthetic, tmp_path):
+    """The data set reader gives one frame set per background video; fit_sets one component each."""
+    import shutil
 
-    def decoded(path):
+    from voxelmocap.io.humaneva import Dataset
+
+    root, _ = synthetic
+    copy = tmp_path / "data"
+    shutil.copytree(root, copy)
+    first = copy / "Background" / "Background_1_(C1).avi"
+    second = copy / "Background" / "Background_2_(C1).avi"
+    size = cv2.VideoCapture(str(first))
+    w, h = int(size.get(cv2.CAP_PROP_FRAME_WIDTH)), int(size.get(cv2.CAP_PROP_FRAME_HEIGHT))
+    size.release()
+    writer = cv2.VideoWriter(str(second), cv2.VideoWriter_fourcc(*"FFV1"), 60.0, (w, h))
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        writer.write(rng.integers(0, 256, size=(h, w, 3), dtype=np.uint8))
+    writer.release()
+
+    def decoded(path, n):  # OpenCV directly, the reference
         cap = cv2.VideoCapture(str(path))
-        frames = []
-        while True:
-            ok, frame = cap.read()
-            if not ok:
-                return frames
-            frames.append(frame)
+        frames = [cap.read()[1] for _ in range(n)]
+        cap.release()
+        return np.stack(frames).astype(float)
 
-    bg = GaussianBackground.from_videos(paths)
-    ref = GaussianBackground.fit_sets([decoded(p) for p in paths])
+    seq = Dataset(copy).sequence("S1", "Walking_1")
+    sets = seq.background_sets("C1", max_frames=4)
+    assert [len(s) for s in sets] == [4, 4]
+    bg = GaussianBackground.fit_sets(sets)
     assert bg.n_components == 2 and bg.channels == 3
-    np.testing.assert_allclose(bg.means, ref.means)
-    np.testing.assert_allclose(bg.variances, ref.variances)
-    capped = GaussianBackground.from_videos(paths, max_frames=2)
-    np.testing.assert_allclose(capped.means[0],
-                               np.mean(np.stack(decoded(paths[0])[:2]).astype(float), axis=0),
-                               rtol=1e-6)
-    with pytest.raises(InputError, match="cannot open video"):
-        GaussianBackground.from_videos([tmp_path / "missing.avi"])
+    for k, path in enumerate([first, second]):
+        ref = decoded(path, 4)
+        np.testing.assert_allclose(bg.means[k], ref.mean(axis=0), rtol=1e-6)
+        np.testing.assert_allclose(bg.variances[k], np.maximum(ref.var(axis=0), bg.min_variance),
+                                   rtol=1e-4)

@@ -5,13 +5,13 @@ then through the pinhole, five distortion terms ``kc = (k1, k2, p1, p2, k3)`` an
 ``alpha_c`` to pixels ``(u, v) = (column, row)``, pixel ``(0, 0)`` being the centre of the upper-left
 pixel (``HUMANEVA.md`` §2.2, Bouguet's ``project_points2``).
 
-File formats handled here:
+:func:`visible` is the one visibility rule (carving, grid derivation): a point is seen when it is
+in front of the camera, within the trusted field of view (:func:`fov_radius`: beyond it the lens
+polynomial folds far off-axis points back into the image) and rounds to a pixel of the image.
 
-* HumanEva ``.cal``: 22 whitespace-separated numbers ``fc(2) cc(2) alpha_c kc(5) R(9, row-major)
-  T(3)``; :meth:`Camera.from_cal`, :meth:`Camera.to_cal`.
-* OpenCV ``(K, dist, rvec, tvec)``: :meth:`Camera.to_opencv`, :meth:`Camera.from_opencv`.
-* anipose / Pose2Sim calibration TOML (``[cam_0] name, size, matrix, distortions, rotation,
-  translation``): :func:`read_calibration_toml`, :func:`write_calibration_toml`.
+The camera model only: files (``.cal``, ``sizes.toml``, anipose / Pose2Sim TOML) are read and
+written by :mod:`voxelmocap.io.calibration`. OpenCV's ``(K, dist, rvec, tvec)`` convert both ways
+(:meth:`Camera.to_opencv`, :meth:`Camera.from_opencv`).
 
 >>> cam = Camera("C1", fc=(800, 800), cc=(320, 240), R=np.eye(3), T=(0, 0, 4000))
 >>> cam.project([[0.0, 0.0, 0.0]])
@@ -20,10 +20,8 @@ array([[320., 240.]])
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -32,11 +30,12 @@ from .errors import InputError
 
 __all__ = [
     "CAMERA_ORDER",
+    "FOV_MARGIN",
     "Camera",
     "Rig",
-    "read_calibration_toml",
+    "fov_radius",
     "sort_camera_names",
-    "write_calibration_toml",
+    "visible",
 ]
 
 #: HumanEva-I's internal camera order (toolkit ``sync_stream``).
@@ -46,6 +45,10 @@ CAMERA_ORDER = ("C1", "C2", "C3", "C4", "BW1", "BW2", "BW3", "BW4")
 CAPTURE_CENTRE = (0.0, 0.0, 1000.0)
 
 _ORTHONORMAL_TOL = 1e-4
+
+#: A projection is trusted up to this factor times the largest undistorted radius of the image
+#: border (beyond it the distortion polynomial may fold points back into the image).
+FOV_MARGIN = 1.05
 
 
 def sort_camera_names(names: Iterable[str]) -> list[str]:
@@ -311,57 +314,6 @@ class Camera:
         return cls(name=name, fc=(K[0, 0], K[1, 1]), cc=(K[0, 2], K[1, 2]), alpha_c=alpha,
                    kc=dist[:5], R=R, T=tvec, size=size, source=source)
 
-    # ------------------------------------------------------------------ .cal files
-    @classmethod
-    def from_cal(cls, path, name: str | None = None, size=(640, 480), *,
-                 check_facing=CAPTURE_CENTRE) -> Camera:
-        """Read a HumanEva ``.cal`` file.
-
-        Parameters
-        ----------
-        path : str or os.PathLike
-            The ``.cal`` file: 22 whitespace-separated numbers (``HUMANEVA.md`` §2.1).
-        name : str, optional
-            Camera name; by default the file stem (``C1.cal`` → ``"C1"``).
-        size : (2,) tuple of int
-            Image size ``(W, H)``; ``.cal`` files do not store it.
-        check_facing : (3,) array_like or None
-            A world point (mm) that must lie in front of the camera; ``None`` skips the check.
-
-        Raises
-        ------
-        InputError
-            Missing or unreadable file, wrong number of values, text, NaN/inf, a non-orthonormal
-            R, or a camera facing away from ``check_facing``.
-        """
-        from .io._files import is_float, read_text_file
-
-        path = Path(path)
-        tokens = read_text_file(path, "calibration file", encoding="ascii").split()
-        if len(tokens) != 22:
-            raise InputError(path, f"expected 22 numbers in a .cal file, found {len(tokens)} values")
-        try:
-            values = np.array([float(t) for t in tokens])
-        except ValueError:
-            bad = next(t for t in tokens if not is_float(t))
-            raise InputError(path, f"value {bad[:20]!r} is not a number") from None
-        if not np.all(np.isfinite(values)):
-            raise InputError(path, "contains NaN or infinite values")
-        cam = cls(name=name or path.stem, fc=values[0:2], cc=values[2:4], alpha_c=values[4],
-                  kc=values[5:10], R=values[10:19].reshape(3, 3), T=values[19:22], size=size,
-                  source=str(path))
-        if check_facing is not None and not cam.looks_at(check_facing):
-            raise InputError(path, f"the capture-area centre {tuple(check_facing)} mm is behind "
-                                   "the camera (check R and T)")
-        return cam
-
-    def to_cal(self, path) -> None:
-        """Write a HumanEva ``.cal`` file (one value per line, as the toolkit's writer), atomically."""
-        values = np.concatenate([self.fc, self.cc, [self.alpha_c], self.kc, self.R.reshape(-1),
-                                 self.T])
-        text = "".join(f"{v:.10g}\n" for v in values)
-        _atomic_write_text(Path(path), text)
-
     def with_size(self, size) -> Camera:
         """A copy with another image size ``(W, H)``."""
         return Camera(self.name, self.fc, self.cc, self.R, self.T, self.alpha_c, self.kc, size,
@@ -371,12 +323,6 @@ class Camera:
         c = self.center
         return (f"Camera({self.name!r}, f=({self.fc[0]:.1f}, {self.fc[1]:.1f}), "
                 f"centre=({c[0]:.0f}, {c[1]:.0f}, {c[2]:.0f}) mm, size={self.size})")
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 # ---------------------------------------------------------------------- rigs
@@ -394,42 +340,6 @@ class Rig(Sequence):
         names = [c.name for c in self.cameras]
         if len(set(names)) != len(names):
             raise InputError("rig", f"camera names are not unique: {names}")
-
-    @classmethod
-    def from_folder(cls, folder, size=(640, 480), names: Iterable[str] | None = None) -> Rig:
-        """Read every ``*.cal`` of ``folder`` (HumanEva order), or only ``names`` when given.
-
-        A ``sizes.toml`` beside the ``.cal`` files (``C1 = [640, 480]`` …) overrides ``size`` per camera.
-        """
-        folder = Path(folder)
-        if not folder.is_dir():
-            raise InputError(folder, "calibration folder not found")
-        files = {p.stem: p for p in folder.iterdir() if p.suffix.lower() == ".cal" and p.is_file()}
-        if not files:
-            raise InputError(folder, "no .cal camera files in this folder")
-        sizes = _read_sizes(folder / "sizes.toml")
-        if names is None:
-            selected = sort_camera_names(files)
-        else:
-            by_upper = {k.upper(): k for k in files}
-            selected = []
-            for n in names:
-                if n.upper() not in by_upper:
-                    raise InputError(folder, f"no calibration for camera {n!r} "
-                                             f"(have {', '.join(sort_camera_names(files))})")
-                selected.append(by_upper[n.upper()])
-        return cls(Camera.from_cal(files[n], name=n, size=sizes.get(n, size)) for n in selected)
-
-    def to_folder(self, folder) -> None:
-        """Write one ``<name>.cal`` per camera and a ``sizes.toml`` into ``folder``."""
-        import tomli_w
-
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        for cam in self.cameras:
-            cam.to_cal(folder / f"{cam.name}.cal")
-        _atomic_write_text(folder / "sizes.toml",
-                           tomli_w.dumps({c.name: list(c.size) for c in self.cameras}))
 
     @property
     def names(self) -> list[str]:
@@ -467,99 +377,86 @@ class Rig(Sequence):
         return f"Rig({', '.join(self.names)})"
 
 
-def _read_sizes(path: Path) -> dict[str, tuple[int, int]]:
-    if not path.exists():
-        return {}
-    data = _load_toml(path)
-    sizes = {}
-    for name, value in data.items():
-        try:
-            w, h = (int(v) for v in value)
-        except (TypeError, ValueError):
-            raise InputError(path, f"size of {name!r} must be [W, H], got {value!r}") from None
-        sizes[name] = (w, h)
-    return sizes
-
-
-def _load_toml(path: Path) -> dict:
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(path, "file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"invalid TOML ({exc})") from None
-    except OSError as exc:
-        raise InputError(path, f"cannot read ({exc.__class__.__name__})") from None
-
-
-# ---------------------------------------------------------------------- anipose / Pose2Sim TOML
-def read_calibration_toml(path, *, translation_scale: float = 1.0) -> Rig:
-    """Read an anipose / Pose2Sim calibration TOML into a :class:`Rig`.
-
-    Every table with ``matrix``, ``distortions``, ``rotation`` (Rodrigues vector) and
-    ``translation`` is a camera; ``[metadata]`` and other tables are ignored. Fisheye cameras are
-    refused (the ``.cal`` model cannot hold them).
+# ---------------------------------------------------------------------- visibility
+def fov_radius(camera) -> float:
+    """Largest trusted undistorted normalised radius of ``camera`` (``FOV_MARGIN`` × the border's).
 
     Parameters
     ----------
-    path : str or os.PathLike
-        The TOML file.
-    translation_scale : float
-        Multiplies the translations to get millimetres: 1 for anipose boards measured in mm,
-        1000 for Pose2Sim files (metres).
+    camera : Camera
+        The camera.
+
+    Returns
+    -------
+    float
+        Radius in normalised pinhole coordinates (``x/z``, ``y/z``).
     """
-    path = Path(path)
-    data = _load_toml(path)
-    cameras = []
-    for key, table in data.items():
-        if not isinstance(table, dict) or "matrix" not in table:
-            continue
-        if table.get("fisheye", False):
-            raise InputError(path, f"[{key}] is a fisheye camera, which the .cal model cannot hold")
-        try:
-            name = str(table.get("name", key))
-            size = tuple(int(round(float(v))) for v in table["size"])
-            K = np.asarray(table["matrix"], dtype=float)
-            dist = np.asarray(table["distortions"], dtype=float)
-            rvec = np.asarray(table["rotation"], dtype=float)
-            tvec = np.asarray(table["translation"], dtype=float) * float(translation_scale)
-        except KeyError as exc:
-            raise InputError(path, f"[{key}] lacks {exc.args[0]!r}") from None
-        except (TypeError, ValueError) as exc:
-            raise InputError(path, f"[{key}] has a malformed value ({exc})") from None
-        if K.shape != (3, 3):
-            raise InputError(path, f"[{key}] matrix must be 3x3")
-        cameras.append(Camera.from_opencv(name, K, dist, rvec, tvec, size=size,
-                                          source=f"{path} [{key}]"))
-    if not cameras:
-        raise InputError(path, "no camera tables (with 'matrix') in this calibration TOML")
-    return Rig(cameras)
+    w, h = camera.size
+    # The edge of what rounds into the image: half a pixel beyond the outermost pixel centres.
+    t = np.linspace(0.0, 1.0, 65)
+    us = t * w - 0.5
+    vs = t * h - 0.5
+    border = np.concatenate([
+        np.stack([us, np.full_like(us, -0.5)], axis=1),
+        np.stack([us, np.full_like(us, h - 0.5)], axis=1),
+        np.stack([np.full_like(vs, -0.5), vs], axis=1),
+        np.stack([np.full_like(vs, w - 0.5), vs], axis=1),
+    ])
+    k1, k2, _, _, k3 = camera.kc
+    # Where the radial model stops being monotonic (r·(1 + k1 r² + k2 r⁴ + k3 r⁶) turns around).
+    r = np.linspace(0.0, 10.0, 20001)
+    rd = r * (1.0 + k1 * r**2 + k2 * r**4 + k3 * r**6)
+    turn = np.flatnonzero(np.diff(rd) <= 0)
+    r_fold = float(r[turn[0]]) if len(turn) else np.inf
+    with np.errstate(invalid="ignore", over="ignore"):
+        norm = camera.undistort_pixels(border)
+        r_border = float(np.max(np.linalg.norm(norm, axis=1)))
+    if not np.isfinite(r_border) or r_border > r_fold:
+        # Image corners beyond the fold cannot be undistorted: trust the model up to the fold.
+        return r_fold
+    return min(FOV_MARGIN * r_border, r_fold)
 
 
-def write_calibration_toml(rig: Iterable[Camera], path, *, translation_scale: float = 1.0) -> None:
-    """Write cameras as an anipose-style calibration TOML (``[cam_0]`` … plus ``[metadata]``).
+def visible(camera, points, *, r_max: float | None = None):
+    """Pixels of ``points`` in ``camera`` and whether the camera sees them.
 
-    Translations are divided by ``translation_scale`` (1000 writes metres, as Pose2Sim expects).
-    Skew is folded into ``matrix[0][1]``, which anipose ignores.
+    Parameters
+    ----------
+    camera : Camera
+        The camera.
+    points : (N, 3) array_like
+        World points (mm).
+    r_max : float, optional
+        Trusted normalised radius; default :func:`fov_radius` of the camera.
+
+    Returns
+    -------
+    u, v : (N,) int64 ndarray
+        ``round(u)``, ``round(v)`` (meaningless where not seen).
+    seen : (N,) bool ndarray
+        In front of the camera, within the field of view and rounding into the image.
     """
-    import tomli_w
-
-    out = {}
-    for i, cam in enumerate(rig):
-        K, dist, rvec, tvec = cam.to_opencv()
-        out[f"cam_{i}"] = {
-            "name": cam.name,
-            "size": [int(cam.size[0]), int(cam.size[1])],
-            "matrix": K.tolist(),
-            "distortions": dist.tolist(),
-            "rotation": rvec.tolist(),
-            "translation": (tvec / float(translation_scale)).tolist(),
-            "fisheye": False,
-        }
-    out["metadata"] = {"adjusted": False, "error": 0.0, "written_by": "voxelmocap"}
-    _atomic_write_text(Path(path), tomli_w.dumps(out))
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    r_max = fov_radius(camera) if r_max is None else r_max
+    # Camera.project's model step by step (its distortion code included). The rigid transform is
+    # written out element-wise: a BLAS matmul of (N, 3) by (3, 3) is slow on the transposed R and
+    # collapses when its threads compete for busy cores.
+    R, T = camera.R, camera.T
+    x, y, w = points[:, 0], points[:, 1], points[:, 2]
+    xc0 = R[0, 0] * x + R[0, 1] * y + R[0, 2] * w + T[0]
+    xc1 = R[1, 0] * x + R[1, 1] * y + R[1, 2] * w + T[1]
+    z = R[2, 0] * x + R[2, 1] * y + R[2, 2] * w + T[2]
+    front = z > 0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ab = np.stack([xc0 / z, xc1 / z], axis=1)
+        r2 = np.einsum("ij,ij->i", ab, ab)
+        xd, yd = camera.distort(ab).T
+        pix = np.stack([camera.fc[0] * (xd + camera.alpha_c * yd) + camera.cc[0],
+                        camera.fc[1] * yd + camera.cc[1]], axis=1)
+    ok = front & (r2 <= r_max * r_max)
+    pix = np.where(ok[:, None], pix, -1.0)
+    u = np.rint(pix[:, 0]).astype(np.int64)
+    v = np.rint(pix[:, 1]).astype(np.int64)
+    w, h = camera.size
+    seen = ok & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    return u, v, seen

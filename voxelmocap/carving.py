@@ -12,7 +12,8 @@ Field of view. A polynomial lens model is only valid over the image it was calib
 axis, ``1 + k1 r² + k2 r⁴ + k3 r⁶`` turns around and folds points from outside the field of view back
 into the image. Projections whose undistorted normalised radius exceeds ``FOV_MARGIN`` × the
 largest radius of the image border (or the radius where the radial polynomial stops increasing,
-if smaller) are therefore treated as outside the image.
+if smaller) are therefore treated as outside the image. The rule is
+:func:`voxelmocap.camera.visible` (re-exported here with :func:`~voxelmocap.camera.fov_radius`).
 
 Cameras are static, so :class:`Carver` projects every voxel centre once per (rig, grid) into an
 ``(N_C, n_voxels)`` int32 table of flat pixel indices (-1 = not seen); each frame is then a gather
@@ -25,8 +26,8 @@ serial; see ``docs/benchmarks.md``). :func:`carve` keeps the last
 two carvers in a cache. :func:`carve_reference` is the plain NumPy implementation (straight through
 ``Camera.project``) that the tests compare against voxel for voxel.
 
->>> from voxelmocap.camera import Rig
->>> rig = Rig.from_folder("calib/humaneva_i_like")                      # doctest: +SKIP
+>>> from voxelmocap.io.calibration import read_rig
+>>> rig = read_rig("calib/humaneva_i_like")                      # doctest: +SKIP
 >>> grid = VoxelGrid.from_rig(rig, 20.0)                                # doctest: +SKIP
 >>> carver = Carver(rig, grid)                                          # doctest: +SKIP
 >>> occupancy = carver.carve(masks)          # masks: (7, 480, 640) bool  # doctest: +SKIP
@@ -41,6 +42,7 @@ import cv2
 import numpy as np
 
 from . import _carving_kernels as _k
+from .camera import FOV_MARGIN, fov_radius, visible
 from .errors import InputError
 from .grid import VoxelGrid
 
@@ -54,10 +56,6 @@ __all__ = [
     "visible",
 ]
 
-#: A projection is trusted up to this factor times the largest undistorted radius of the image
-#: border (beyond it the distortion polynomial may fold points back into the image).
-FOV_MARGIN = 1.05
-
 #: Edge (voxels) of the bricks rejected as a whole when a camera sees only background there.
 BRICK = 6
 
@@ -67,90 +65,6 @@ _CACHE_SIZE = 2
 
 class EmptySilhouetteWarning(UserWarning):
     """Every silhouette of a frame is empty (no person in view): the occupancy is empty."""
-
-
-def fov_radius(camera) -> float:
-    """Largest trusted undistorted normalised radius of ``camera`` (``FOV_MARGIN`` × the border's).
-
-    Parameters
-    ----------
-    camera : Camera
-        The camera.
-
-    Returns
-    -------
-    float
-        Radius in normalised pinhole coordinates (``x/z``, ``y/z``).
-    """
-    w, h = camera.size
-    # The edge of what rounds into the image: half a pixel beyond the outermost pixel centres.
-    t = np.linspace(0.0, 1.0, 65)
-    us = t * w - 0.5
-    vs = t * h - 0.5
-    border = np.concatenate([
-        np.stack([us, np.full_like(us, -0.5)], axis=1),
-        np.stack([us, np.full_like(us, h - 0.5)], axis=1),
-        np.stack([np.full_like(vs, -0.5), vs], axis=1),
-        np.stack([np.full_like(vs, w - 0.5), vs], axis=1),
-    ])
-    k1, k2, _, _, k3 = camera.kc
-    # Where the radial model stops being monotonic (r·(1 + k1 r² + k2 r⁴ + k3 r⁶) turns around).
-    r = np.linspace(0.0, 10.0, 20001)
-    rd = r * (1.0 + k1 * r**2 + k2 * r**4 + k3 * r**6)
-    turn = np.flatnonzero(np.diff(rd) <= 0)
-    r_fold = float(r[turn[0]]) if len(turn) else np.inf
-    with np.errstate(invalid="ignore", over="ignore"):
-        norm = camera.undistort_pixels(border)
-        r_border = float(np.max(np.linalg.norm(norm, axis=1)))
-    if not np.isfinite(r_border) or r_border > r_fold:
-        # Image corners beyond the fold cannot be undistorted: trust the model up to the fold.
-        return r_fold
-    return min(FOV_MARGIN * r_border, r_fold)
-
-
-def visible(camera, points, *, r_max: float | None = None):
-    """Pixels of ``points`` in ``camera`` and whether the camera sees them.
-
-    Parameters
-    ----------
-    camera : Camera
-        The camera.
-    points : (N, 3) array_like
-        World points (mm).
-    r_max : float, optional
-        Trusted normalised radius; default :func:`fov_radius` of the camera.
-
-    Returns
-    -------
-    u, v : (N,) int64 ndarray
-        ``round(u)``, ``round(v)`` (meaningless where not seen).
-    seen : (N,) bool ndarray
-        In front of the camera, within the field of view and rounding into the image.
-    """
-    points = np.asarray(points, dtype=float).reshape(-1, 3)
-    r_max = fov_radius(camera) if r_max is None else r_max
-    # Camera.project's model step by step (its distortion code included). The rigid transform is
-    # written out element-wise: a BLAS matmul of (N, 3) by (3, 3) is slow on the transposed R and
-    # collapses when its threads compete for busy cores.
-    R, T = camera.R, camera.T
-    x, y, w = points[:, 0], points[:, 1], points[:, 2]
-    xc0 = R[0, 0] * x + R[0, 1] * y + R[0, 2] * w + T[0]
-    xc1 = R[1, 0] * x + R[1, 1] * y + R[1, 2] * w + T[1]
-    z = R[2, 0] * x + R[2, 1] * y + R[2, 2] * w + T[2]
-    front = z > 0
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ab = np.stack([xc0 / z, xc1 / z], axis=1)
-        r2 = np.einsum("ij,ij->i", ab, ab)
-        xd, yd = camera.distort(ab).T
-        pix = np.stack([camera.fc[0] * (xd + camera.alpha_c * yd) + camera.cc[0],
-                        camera.fc[1] * yd + camera.cc[1]], axis=1)
-    ok = front & (r2 <= r_max * r_max)
-    pix = np.where(ok[:, None], pix, -1.0)
-    u = np.rint(pix[:, 0]).astype(np.int64)
-    v = np.rint(pix[:, 1]).astype(np.int64)
-    w, h = camera.size
-    seen = ok & (u >= 0) & (u < w) & (v >= 0) & (v < h)
-    return u, v, seen
 
 
 def _check_cameras(cameras) -> list:

@@ -1,8 +1,9 @@
 """Typed, validated configuration of the tracking pipeline: the one home of its defaults.
 
 Each stage has a frozen dataclass; :class:`TrackConfig` groups them. A TOML file may set any subset
-of the keys (tables ``[measurement]``, ``[likelihood]``, ``[filter]``, ``[init]``); unknown keys and
-wrong types are refused with an error naming the file and the key. Command-line options override
+of the keys (tables ``[measurement]`` with ``[measurement.silhouette]``, ``[likelihood]``,
+``[filter]``, ``[init]``); unknown keys, wrong types and values out of range are refused with an
+error naming the file and the key, by one validator (:func:`config_from_dict`). Command-line options override
 the file (:func:`with_overrides`), and the resolved configuration is stored with every result
 (:func:`config_to_toml`), so a run can be reproduced and a resumed run checked against it.
 
@@ -22,12 +23,15 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .grid import MIN_VOXELS_PER_AXIS
+from .io.toml import dumps_toml, parse_toml, read_toml
 
 __all__ = [
     "FilterConfig",
     "InitConfig",
     "LikelihoodConfig",
     "MeasurementConfig",
+    "SilhouetteConfig",
     "TrackConfig",
     "config_from_dict",
     "config_from_toml",
@@ -38,15 +42,81 @@ __all__ = [
 ]
 
 
+#: Sane voxel edges (mm). Finer than 1 mm is below a pixel's footprint at any capture distance
+#: (≈ 5 mm per pixel at 4 m with HumanEva's lenses) and only costs memory; coarser than 250 mm
+#: cannot hold a body part (limbs are 80–160 mm wide, the torso ≈ 320 mm) and puts fewer than
+#: MIN_VOXELS_PER_AXIS voxels along a 2 m person. The paper works at 10–40 mm.
+VOXEL_SIZE_RANGE = (1.0, 250.0)
+#: Gaussian smoothing of the surface (voxels): beyond 10 voxels the smoothed surface is a blur
+#: wider than the body at the default voxel size.
+MAX_SURFACE_SIGMA = 10.0
+
+
 def _choice(*options, default):
     return field(default=default, metadata={"choices": options})
+
+
+@dataclass(frozen=True)
+class SilhouetteConfig:
+    """Background subtraction (:mod:`voxelmocap.silhouette`): model, thresholds, shadows, clean-up.
+
+    The TOML table ``[measurement.silhouette]``; per-camera thresholds are tables too
+    (``camera_risk.BW1 = 1e6``). Built directly (``SilhouetteConfig(method="mog2")``) it is
+    checked by the same validator as a file, so a bad value raises :class:`InputError`.
+    """
+
+    #: ``gaussian``: the HumanEva toolkit's per-pixel Gaussians learnt from background videos;
+    #: ``mog2``: OpenCV's adaptive mixture (Zivkovic), learnt from background frames and online
+    method: str = _choice("gaussian", "mog2", default="gaussian")
+    #: Gaussian model: foreground iff background likelihood < 1 / (256^C · risk); larger = fewer
+    #: foreground pixels. The toolkit suggests 1 (colour), up to 1e60–1e100 for S1's noisy BW
+    #: cameras (on its 0–1 intensity scale)
+    risk: float = 1.0
+    camera_risk: dict[str, float] = field(default_factory=dict)  #: per-camera ``risk``
+    #: floor of the per-pixel variances (intensity², 0–255 scale). The toolkit uses 1e-3; 4
+    #: (σ ≥ 2 grey levels) keeps video-compression wobble out of the foreground: on the
+    #: project's synthetic MJPG sequences colour precision 0.90 → 0.96 at the same recall
+    min_variance: float = 4.0
+    var_threshold: float = 16.0  #: MOG2 ``varThreshold`` (squared Mahalanobis distance)
+    camera_var_threshold: dict[str, float] = field(default_factory=dict)  #: per camera
+    mog2_history: int = 500  #: MOG2 history length (frames)
+    #: MOG2 learning rate while segmenting (-1 = OpenCV's automatic 1/history, 0 = frozen)
+    mog2_learning_rate: float = -1.0
+    #: remove cast shadows (Gaussian: Horprasert distortions; MOG2: OpenCV's shadow detector)
+    shadows: bool = True
+    #: range of the brightness ratio α (image / background) a shadow may have
+    shadow_brightness: tuple[float, float] = (0.4, 0.95)
+    shadow_chromaticity: float = 0.08  #: largest chromaticity distortion ``|I − αE| / |αE|``
+    #: also suppress shadows on grayscale cameras (α in range and the background texture kept);
+    #: off: where the floor has little texture it also removes dark clothing
+    shadow_gray: bool = False
+    shadow_ncc: float = 0.5  #: smallest image/background cross-correlation of a gray shadow
+    shadow_window: int = 2  #: half-size (pixels) of that correlation window
+    open_radius: int = 1  #: elliptic opening radius (pixels; 0 = off), removes speckle
+    close_radius: int = 2  #: elliptic closing radius (pixels; 0 = off), fills gaps
+    min_area: int = 50  #: remove 4-connected blobs smaller than this (pixels; toolkit: 10)
+    largest_only: bool = False  #: keep only the largest 8-connected component (``one_comp``)
+    fill_holes: bool = False  #: fill background regions enclosed by the silhouette
+
+    def __post_init__(self):
+        _validate(self, "measurement.silhouette", "SilhouetteConfig")
+
+    def risk_for(self, camera: str | None) -> float:
+        """The Gaussian model's risk for ``camera`` (its override, else ``risk``)."""
+        return float(self.camera_risk.get(camera, self.risk)) if camera else float(self.risk)
+
+    def var_threshold_for(self, camera: str | None) -> float:
+        """The MOG2 ``varThreshold`` for ``camera`` (its override, else ``var_threshold``)."""
+        if camera:
+            return float(self.camera_var_threshold.get(camera, self.var_threshold))
+        return float(self.var_threshold)
 
 
 @dataclass(frozen=True)
 class MeasurementConfig:
     """Background subtraction, carving and surface smoothing."""
 
-    voxel_size: float = 20.0  #: voxel edge (mm)
+    voxel_size: float = 20.0  #: voxel edge (mm), within VOXEL_SIZE_RANGE
     #: grid corner (mm) and size (voxels); None derives the floor-standing box seen by the cameras
     grid_origin: tuple[float, float, float] | None = None
     grid_shape: tuple[int, int, int] | None = None
@@ -55,9 +125,8 @@ class MeasurementConfig:
     min_views: int | None = None
     surface_sigma: float = 1.0  #: Gaussian smoothing of the surface voxels (voxels)
     background_frames: int = 200  #: background-video frames per camera used to learn the model
-    #: background model, thresholds (per camera too) and clean-up: the keys of
-    #: ``voxelmocap.silhouette.SilhouetteConfig`` (e.g. ``method = "mog2"``, ``camera_risk.BW1``)
-    silhouette: dict = field(default_factory=dict)
+    #: background model, thresholds (per camera too) and clean-up
+    silhouette: SilhouetteConfig = field(default_factory=SilhouetteConfig)
 
 
 @dataclass(frozen=True)
@@ -143,10 +212,15 @@ def _check_value(value, hint, key: str, source):
         if not isinstance(value, str):
             raise InputError(source, f"key {key!r} must be a string, got {value!r}")
         return value
-    if hint is dict or origin is dict:
+    if origin is dict:
         if not isinstance(value, dict):
             raise InputError(source, f"key {key!r} must be a table, got {value!r}")
-        return dict(value)
+        out = {}
+        for name, item in value.items():
+            if not isinstance(name, str):
+                raise InputError(source, f"key {key!r} must have string keys, got {name!r}")
+            out[name] = _check_value(item, args[1], f"{key}.{name}", source)
+        return out
     if origin is tuple:
         if not isinstance(value, (list, tuple)):
             raise InputError(source, f"key {key!r} must be a list, got {value!r}")
@@ -180,12 +254,38 @@ def _build(cls, data, prefix: str, source):
             raise InputError(source, f"key {key!r} must be one of {', '.join(choices)}, "
                                      f"got {checked!r}")
         kwargs[name] = checked
-    obj = cls(**kwargs)
+    try:
+        obj = cls(**kwargs)
+    except InputError as exc:  # a class that validates itself: the message names the key
+        raise InputError(source, exc.problem) from None
     _check_ranges(obj, prefix, source)
     return obj
 
 
+def _validate(obj, prefix: str, source) -> None:
+    """Check the field values of a config built directly (types, choices, ranges).
+
+    Tuples and tables are normalised in place (``object.__setattr__``: the classes are frozen),
+    so a config built from Python values equals the same config read from TOML.
+    """
+    hints = typing.get_type_hints(type(obj))
+    for f in dataclasses.fields(obj):
+        key = f"{prefix}.{f.name}"
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(hints[f.name]):
+            continue
+        checked = _check_value(value, hints[f.name], key, source)
+        choices = f.metadata.get("choices")
+        if choices and checked not in choices:
+            raise InputError(source, f"key {key!r} must be one of {', '.join(choices)}, "
+                                     f"got {checked!r}")
+        object.__setattr__(obj, f.name, checked)
+    _check_ranges(obj, prefix, source)
+
+
 def _check_ranges(obj, prefix: str, source) -> None:
+    if isinstance(obj, MeasurementConfig):
+        _check_measurement(obj, prefix, source)
     positive = {"voxel_size", "surface_sigma", "layers", "particles", "translation_std_mm",
                 "rotation_std_rad", "joint_std_rad", "background_frames"}
     for name in positive:
@@ -198,18 +298,56 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, "key 'filter.noise_decay' must be in (0, 1]")
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
-    if isinstance(obj, MeasurementConfig):
-        if obj.min_views is not None and obj.min_views < 1:
-            raise InputError(source, "key 'measurement.min_views' must be >= 1")
-        if (obj.grid_origin is None) != (obj.grid_shape is None):
-            raise InputError(source, "keys 'measurement.grid_origin' and 'measurement.grid_shape' "
-                                     "go together")
-        from .silhouette import SilhouetteConfig
+    if isinstance(obj, SilhouetteConfig):
+        _check_silhouette(obj, prefix, source)
 
-        try:
-            SilhouetteConfig.from_dict(obj.silhouette, source="measurement.silhouette")
-        except InputError as exc:
-            raise InputError(source, str(exc)) from None
+
+def _check_measurement(obj: MeasurementConfig, prefix: str, source) -> None:
+    def bad(name, rule):
+        raise InputError(source, f"key '{prefix}.{name}' must be {rule}")
+
+    low, high = VOXEL_SIZE_RANGE
+    if not low <= obj.voxel_size <= high:
+        bad("voxel_size", f"between {low:g} and {high:g} mm, got {obj.voxel_size:g}")
+    if not 0 < obj.surface_sigma <= MAX_SURFACE_SIGMA:
+        bad("surface_sigma", f"> 0 and <= {MAX_SURFACE_SIGMA:g} voxels, got {obj.surface_sigma:g}")
+    if obj.background_frames < 1:
+        bad("background_frames", ">= 1")
+    if obj.min_views is not None and obj.min_views < 1:
+        bad("min_views", ">= 1")
+    if (obj.grid_origin is None) != (obj.grid_shape is None):
+        raise InputError(source, f"keys '{prefix}.grid_origin' and '{prefix}.grid_shape' go "
+                                 "together")
+    if obj.grid_shape is not None and min(obj.grid_shape) < MIN_VOXELS_PER_AXIS:
+        bad("grid_shape", f"at least {MIN_VOXELS_PER_AXIS} voxels along every axis, got "
+                          f"{list(obj.grid_shape)}")
+
+
+def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
+    def bad(name, rule):
+        raise InputError(source, f"key '{prefix}.{name}' must be {rule}")
+
+    for name in ("risk", "min_variance", "var_threshold"):
+        if not getattr(obj, name) > 0:
+            bad(name, "> 0")
+    for name in ("camera_risk", "camera_var_threshold"):
+        for camera, value in getattr(obj, name).items():
+            if not value > 0:
+                bad(f"{name}.{camera}", "> 0")
+    if not (obj.mog2_learning_rate == -1 or 0 <= obj.mog2_learning_rate <= 1):
+        bad("mog2_learning_rate", "-1 (automatic) or between 0 and 1")
+    low, high = obj.shadow_brightness
+    if not 0 <= low < high <= 1.5:
+        bad("shadow_brightness", f"[low, high] with 0 <= low < high <= 1.5, got [{low}, {high}]")
+    if not obj.shadow_chromaticity >= 0:
+        bad("shadow_chromaticity", ">= 0")
+    if not -1 <= obj.shadow_ncc <= 1:
+        bad("shadow_ncc", "between -1 and 1")
+    for name in ("open_radius", "close_radius", "min_area", "shadow_window"):
+        if getattr(obj, name) < 0:
+            bad(name, ">= 0")
+    if obj.mog2_history < 1:
+        bad("mog2_history", ">= 1")
 
 
 def config_from_dict(data: dict, source="config") -> TrackConfig:
@@ -231,38 +369,32 @@ def config_to_dict(config) -> dict:
 
 def config_to_toml(config) -> str:
     """TOML text of a config (the form stored with results)."""
-    import tomli_w
-
-    return tomli_w.dumps(config_to_dict(config))
+    return dumps_toml(config_to_dict(config))
 
 
 def config_from_toml(text: str, source="config") -> TrackConfig:
     """Build and validate a :class:`TrackConfig` from TOML text."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"invalid TOML ({exc})") from None
-    return config_from_dict(data, source)
+    return config_from_dict(parse_toml(text, source), source)
 
 
 def load_config(path) -> TrackConfig:
     """Read a TOML config file; keys not given keep their defaults."""
-    from .camera import _load_toml
-
     path = Path(path)
-    return config_from_dict(_load_toml(path), source=str(path))
+    return config_from_dict(read_toml(path), source=str(path))
 
 
 def with_overrides(config: TrackConfig, **overrides) -> TrackConfig:
-    """A copy with ``"section.key"`` values replaced (None values are ignored)."""
+    """A copy with ``"section.key"`` (or ``"section.table.key"``) values replaced.
+
+    None values are ignored; the result is validated like a file (source ``options``).
+    """
     data = dataclasses.asdict(config)
     for dotted, value in overrides.items():
         if value is None:
             continue
-        section, key = dotted.split(".", 1)
-        data[section][key] = value
+        *tables, key = dotted.split(".")
+        table = data
+        for name in tables:
+            table = table[name]
+        table[key] = value
     return config_from_dict(data, source="options")

@@ -23,13 +23,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .camera import visible
 from .errors import InputError
 
-__all__ = ["VoxelGrid", "available_memory"]
+__all__ = ["MIN_VOXELS_PER_AXIS", "VoxelGrid", "available_memory"]
 
 #: Share of the available memory a single grid's arrays may take before :meth:`VoxelGrid.check_memory`
 #: refuses it (the rest is left to the images, the tracker and the other processes).
 MEMORY_SHARE = 0.5
+
+#: Fewest voxels along any axis of a measurement grid: below it a body part is smaller than a
+#: voxel, and the 6-neighbour surface and its Gaussian smoothing have nothing to work on.
+MIN_VOXELS_PER_AXIS = 8
 
 
 def available_memory() -> int | None:
@@ -106,7 +111,7 @@ class VoxelGrid:
         The floor (Z = 0) is sampled on a square lattice of pitch ``step`` around the cameras; a
         lattice point belongs to the capture area when both it and the point ``height`` above it
         are seen by at least ``min_views`` cameras (the carver's rule,
-        :func:`voxelmocap.carving.visible`: in front, within the field of view, rounding into the
+        :func:`voxelmocap.camera.visible`: in front, within the field of view, rounding into the
         image). The grid is
         the axis-aligned box over the capture area's bounding rectangle (grown by ``margin``), from
         the floor to ``height``, with its corner at the floor (x, y snapped down to multiples of
@@ -133,7 +138,8 @@ class VoxelGrid:
         Raises
         ------
         InputError
-            When no floor area is seen by ``min_views`` cameras, or the grid would not fit in memory.
+            When no floor area is seen by ``min_views`` cameras, the grid has fewer than
+            :data:`MIN_VOXELS_PER_AXIS` voxels along an axis, or it would not fit in memory.
         """
         cameras = list(rig)
         if not cameras:
@@ -156,8 +162,6 @@ class VoxelGrid:
         top = floor + np.array([0.0, 0.0, float(height)])
         # the carver's visibility rule: in front, inside the trusted field of view (the lens
         # polynomial folds far off-axis points back into the image), rounding into the image
-        from .carving import visible
-
         views = np.zeros(len(floor), dtype=np.int32)
         for cam in cameras:
             views += visible(cam, floor)[2] & visible(cam, top)[2]
@@ -172,6 +176,13 @@ class VoxelGrid:
         size = float(voxel_size)
         low[:2] = np.floor(low[:2] / size) * size
         grid = cls.from_bounds(low, high, voxel_size)
+        if min(grid.shape) < MIN_VOXELS_PER_AXIS:
+            nx, ny, nz = grid.shape
+            raise InputError("measurement.voxel_size",
+                             f"{size:g} mm voxels give a {nx}x{ny}x{nz} grid over the capture "
+                             f"area ({high[0] - low[0]:.0f} x {high[1] - low[1]:.0f} x "
+                             f"{high[2]:.0f} mm); at least {MIN_VOXELS_PER_AXIS} voxels along "
+                             "every axis are needed: use smaller voxels")
         if bytes_per_voxel is not None:
             grid.check_memory(bytes_per_voxel)
         return grid

@@ -59,14 +59,14 @@ class MeasurementRunner(MeasurementStage):
 
     def __init__(self, seq, config: TrackConfig, log=print):
         from .grid import VoxelGrid
-        from .silhouette import SilhouetteConfig, build_backgrounds
+        from .silhouette import build_backgrounds
 
         mc = config.measurement
         self.measurement_config = mc
         self.log = log
         self.empty_frames: list[int] = []
         self.excluded_frames: dict[str, list[int]] = {}
-        silhouette = SilhouetteConfig.from_dict(mc.silhouette, source="measurement.silhouette")
+        silhouette = mc.silhouette
         rig = seq.rig
         for key in ("camera_risk", "camera_var_threshold"):
             unknown = sorted(set(getattr(silhouette, key)) - set(seq.all_camera_names))
@@ -239,6 +239,9 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     if ply_dir is not None and ply_dir.exists() and not ply_dir.is_dir():
         raise InputError(ply_dir, "exists and is not a folder")
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
+    if log is not None:
+        for problem in seq.problems:  # cameras the data set has but this run cannot use
+            log(f"warning: {problem}")
     selected = parse_frame_range(frames, seq.frame_numbers) if frames else seq.frame_numbers
     if len(selected) == 0:
         raise InputError(f"{seq.subject}/{seq.name}", "no frames to dump")

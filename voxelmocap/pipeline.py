@@ -145,7 +145,10 @@ def body_model_for(seq, gt=None):
     from .body import BodyModel
 
     if seq.body_file is not None:
-        return BodyModel.from_file(seq.body_file), f"subject body file {seq.body_file.name}"
+        from .io.body_file import read_body_file
+
+        return (BodyModel(read_body_file(seq.body_file)),
+                f"subject body file {seq.body_file.name}")
     if gt is not None and gt.enabled.all(axis=1).any():
         from .joints import endpoints_to_landmarks
 
@@ -225,6 +228,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
 
     config = config or TrackConfig()
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
+    for problem in seq.problems:  # cameras the data set has but this run cannot use
+        log(f"warning: {problem}")
     gt = seq.ground_truth()
     available = seq.frame_numbers
     if gt is not None:

@@ -21,8 +21,11 @@ image and background over a small window must exceed ``shadow_ncc`` (Jacques et 
 tells a darkened textured floor from dark clothing. :func:`clean_mask` then opens, closes, keeps the largest
 component if asked, removes small 4-connected blobs (the toolkit's ``min_area``) and fills holes.
 
-:class:`SilhouetteConfig` holds every default, with per-camera thresholds; :func:`segment` applies
-a model and the configuration to one image; :func:`build_backgrounds` makes one model per camera.
+:class:`~voxelmocap.config.SilhouetteConfig` (in :mod:`voxelmocap.config`, re-exported here) holds
+every setting and states every default once, with per-camera thresholds; the keyword defaults of
+the functions here are read from it. :func:`segment` applies a model and the configuration to one
+image; :func:`build_backgrounds` makes one model per camera. Images come from
+:mod:`voxelmocap.io.humaneva` (this module reads no file).
 
 >>> bg = GaussianBackground.fit(background_frames)          # doctest: +SKIP
 >>> mask = segment(image, bg, SilhouetteConfig(), camera="C1")   # doctest: +SKIP
@@ -31,11 +34,11 @@ a model and the configuration to one image; :func:`build_backgrounds` makes one 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, fields
 
 import cv2
 import numpy as np
 
+from .config import SilhouetteConfig
 from .errors import InputError
 
 __all__ = [
@@ -48,137 +51,9 @@ __all__ = [
     "suppress_shadows",
 ]
 
-METHODS = ("gaussian", "mog2")
-
-
-@dataclass(frozen=True)
-class SilhouetteConfig:
-    """Every setting of background subtraction, with its default.
-
-    Parameters
-    ----------
-    method : {"gaussian", "mog2"}
-        Background model; ``"gaussian"`` (the toolkit's) needs background frames.
-    risk : float
-        Gaussian model: foreground iff background likelihood < 1 / (256^C · risk). Larger risk =
-        fewer foreground pixels. HumanEva's toolkit suggests 1 (colour) and up to 1e60–1e100 for
-        its noisy S1 grayscale cameras (on its 0–1 intensity scale).
-    camera_risk : dict of str to float
-        Per-camera overrides of ``risk`` (camera name → risk).
-    min_variance : float
-        Floor of the per-pixel variances (intensity², 0–255 scale). The toolkit uses 1e-3; the
-        default 4 (σ ≥ 2 grey levels) keeps video-compression wobble out of the foreground: on
-        the project's synthetic MJPG sequences it lifts colour precision from ~0.90 to ~0.96 at
-        the same recall.
-    var_threshold : float
-        MOG2 ``varThreshold`` (squared Mahalanobis distance to decide background).
-    camera_var_threshold : dict of str to float
-        Per-camera overrides of ``var_threshold``.
-    mog2_history : int
-        MOG2 history length (frames).
-    mog2_learning_rate : float
-        MOG2 learning rate while segmenting the sequence (-1 = OpenCV's automatic 1/history,
-        0 = frozen after learning from background frames).
-    shadows : bool
-        Remove cast shadows (Gaussian: Horprasert distortions; MOG2: OpenCV's shadow detector).
-    shadow_brightness : (float, float)
-        Range of the brightness ratio α (image / background) that a shadow may have.
-    shadow_chromaticity : float
-        Largest normalised chromaticity distortion ``|I − αE| / |αE|`` of a shadow.
-    shadow_gray : bool
-        Also suppress shadows on grayscale cameras: α in range and the background's texture kept
-        (normalised cross-correlation above ``shadow_ncc``). Off by default: where the floor has
-        little texture it also removes dark clothing.
-    shadow_ncc : float
-        Smallest normalised cross-correlation of image and background over the window for a gray
-        shadow.
-    shadow_window : int
-        Half-size (pixels) of the cross-correlation window (``2 r + 1`` square).
-    open_radius, close_radius : int
-        Radii (pixels) of the elliptic opening (speckle removal) and closing (gap filling); 0 = off.
-    min_area : int
-        Remove 4-connected foreground blobs smaller than this (pixels); the toolkit's default is 10.
-    largest_only : bool
-        Keep only the largest 8-connected component (the toolkit's ``one_comp``).
-    fill_holes : bool
-        Fill background regions enclosed by the silhouette.
-    """
-
-    method: str = "gaussian"
-    risk: float = 1.0
-    camera_risk: dict = field(default_factory=dict)
-    min_variance: float = 4.0
-    var_threshold: float = 16.0
-    camera_var_threshold: dict = field(default_factory=dict)
-    mog2_history: int = 500
-    mog2_learning_rate: float = -1.0
-    shadows: bool = True
-    shadow_brightness: tuple = (0.4, 0.95)
-    shadow_chromaticity: float = 0.08
-    shadow_gray: bool = False
-    shadow_ncc: float = 0.5
-    shadow_window: int = 2
-    open_radius: int = 1
-    close_radius: int = 2
-    min_area: int = 50
-    largest_only: bool = False
-    fill_holes: bool = False
-
-    def __post_init__(self):
-        if self.method not in METHODS:
-            raise InputError("silhouette.method", f"must be one of {', '.join(METHODS)}, "
-                                                  f"got {self.method!r}")
-        for name in ("risk", "min_variance", "var_threshold"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                raise InputError(f"silhouette.{name}", f"must be a positive number, got {value!r}")
-        for name in ("camera_risk", "camera_var_threshold"):
-            table = getattr(self, name)
-            if not isinstance(table, Mapping):
-                raise InputError(f"silhouette.{name}", "must map camera names to numbers")
-            for cam, value in table.items():
-                if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                    raise InputError(f"silhouette.{name}.{cam}",
-                                     f"must be a positive number, got {value!r}")
-            object.__setattr__(self, name, dict(table))
-        lo, hi = (float(v) for v in self.shadow_brightness)
-        if not 0 <= lo < hi <= 1.5:
-            raise InputError("silhouette.shadow_brightness", f"need 0 <= low < high, got {lo}, {hi}")
-        object.__setattr__(self, "shadow_brightness", (lo, hi))
-        if not -1.0 <= float(self.shadow_ncc) <= 1.0:
-            raise InputError("silhouette.shadow_ncc", f"must be in [-1, 1], got {self.shadow_ncc!r}")
-        for name in ("open_radius", "close_radius", "min_area", "mog2_history", "shadow_window"):
-            value = getattr(self, name)
-            if int(value) != value or value < 0:
-                raise InputError(f"silhouette.{name}", f"must be a non-negative integer, got {value!r}")
-
-    def risk_for(self, camera: str | None) -> float:
-        """The Gaussian model's risk for ``camera`` (its override, else ``risk``)."""
-        return float(self.camera_risk.get(camera, self.risk)) if camera else float(self.risk)
-
-    def var_threshold_for(self, camera: str | None) -> float:
-        """The MOG2 ``varThreshold`` for ``camera`` (its override, else ``var_threshold``)."""
-        if camera:
-            return float(self.camera_var_threshold.get(camera, self.var_threshold))
-        return float(self.var_threshold)
-
-    def to_dict(self) -> dict:
-        """Plain types (for TOML / HDF5 attributes)."""
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
-        out["shadow_brightness"] = list(self.shadow_brightness)
-        return out
-
-    @classmethod
-    def from_dict(cls, data: Mapping, source: str = "silhouette") -> SilhouetteConfig:
-        """Inverse of :meth:`to_dict`; unknown keys raise :class:`InputError` naming ``source``."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise InputError(source, f"unknown silhouette setting(s): {', '.join(unknown)}")
-        kwargs = dict(data)
-        if "shadow_brightness" in kwargs:
-            kwargs["shadow_brightness"] = tuple(kwargs["shadow_brightness"])
-        return cls(**kwargs)
+#: The settings' defaults, stated once in :class:`voxelmocap.config.SilhouetteConfig`; the
+#: keyword defaults of the functions below are read from it.
+_DEFAULT = SilhouetteConfig()
 
 
 # ---------------------------------------------------------------------- images
@@ -203,25 +78,6 @@ def _is_gray(image) -> bool:
         np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 0], img[..., 2]))
 
 
-def read_video_frames(path, *, max_frames: int | None = None):
-    """Decode the frames of a video with OpenCV (generator of ``(H, W, 3)`` uint8 BGR images)."""
-    cap = cv2.VideoCapture(str(path))
-    if not cap.isOpened():
-        raise InputError(path, "cannot open video")
-    try:
-        n = 0
-        while max_frames is None or n < max_frames:
-            ok, frame = cap.read()
-            if not ok:
-                break
-            n += 1
-            yield frame
-    finally:
-        cap.release()
-    if n == 0:
-        raise InputError(path, "video has no decodable frames")
-
-
 # ---------------------------------------------------------------------- Gaussian model
 class GaussianBackground:
     """Equal-weight mixture of per-pixel diagonal Gaussians (HumanEva toolkit model).
@@ -234,7 +90,7 @@ class GaussianBackground:
         Floor of the variances (intensity²).
     """
 
-    def __init__(self, means, variances, *, min_variance: float = 1e-3):
+    def __init__(self, means, variances, *, min_variance: float = _DEFAULT.min_variance):
         means = [np.asarray(m, dtype=np.float32) for m in means]
         variances = [np.asarray(v, dtype=np.float32) for v in variances]
         if not means or len(means) != len(variances):
@@ -295,7 +151,7 @@ class GaussianBackground:
         return mean, var
 
     @classmethod
-    def fit(cls, frames: Iterable, *, min_variance: float = 1e-3,
+    def fit(cls, frames: Iterable, *, min_variance: float = _DEFAULT.min_variance,
             grayscale: bool | None = None) -> GaussianBackground:
         """One-component model from background frames.
 
@@ -312,7 +168,8 @@ class GaussianBackground:
         return cls([mean], [var], min_variance=min_variance)
 
     @classmethod
-    def fit_sets(cls, frame_sets: Iterable[Iterable], *, min_variance: float = 1e-3,
+    def fit_sets(cls, frame_sets: Iterable[Iterable], *,
+                 min_variance: float = _DEFAULT.min_variance,
                  grayscale: bool | None = None) -> GaussianBackground:
         """Mixture model: one component per set of background frames (e.g. per video)."""
         means, variances = [], []
@@ -324,29 +181,6 @@ class GaussianBackground:
         if not means:
             raise InputError("background", "no background sets")
         return cls(means, variances, min_variance=min_variance)
-
-    @classmethod
-    def from_videos(cls, paths: Iterable, *, min_variance: float = 1e-3,
-                    grayscale: bool | None = None,
-                    max_frames: int | None = None) -> GaussianBackground:
-        """Mixture model with one component per background video (as the toolkit).
-
-        Parameters
-        ----------
-        paths : iterable of path
-            Background videos of one camera (e.g. ``Background_*_(C1).avi``).
-        min_variance : float
-            Floor of the variances.
-        grayscale : bool, optional
-            Default: detected from the first frame (BW cameras decode as three equal channels).
-        max_frames : int, optional
-            Use at most this many frames per video.
-        """
-        paths = list(paths)
-        if not paths:
-            raise InputError("background", "no background videos")
-        sets = (read_video_frames(p, max_frames=max_frames) for p in paths)
-        return cls.fit_sets(sets, min_variance=min_variance, grayscale=grayscale)
 
     def log_likelihood(self, image) -> tuple[np.ndarray, np.ndarray]:
         """Background log-likelihood per pixel and the most likely component.
@@ -379,14 +213,15 @@ class GaussianBackground:
         loglik = top + np.log(np.exp(terms - top[None]).sum(axis=0))
         return loglik.astype(np.float32), best
 
-    def threshold(self, risk: float = 1.0) -> float:
+    def threshold(self, risk: float = _DEFAULT.risk) -> float:
         """Log-likelihood threshold ``−log(256^C · risk)`` below which a pixel is foreground."""
         return -(self.channels * np.log(256.0) + np.log(float(risk)))
 
-    def foreground(self, image, *, risk: float = 1.0, shadows: bool = False,
-                   shadow_brightness=(0.4, 0.95), shadow_chromaticity: float = 0.08,
-                   shadow_gray: bool = False, shadow_ncc: float = 0.5,
-                   shadow_window: int = 2) -> np.ndarray:
+    def foreground(self, image, *, risk: float = _DEFAULT.risk, shadows: bool = False,
+                   shadow_brightness=_DEFAULT.shadow_brightness,
+                   shadow_chromaticity: float = _DEFAULT.shadow_chromaticity,
+                   shadow_gray: bool = _DEFAULT.shadow_gray, shadow_ncc: float = _DEFAULT.shadow_ncc,
+                   shadow_window: int = _DEFAULT.shadow_window) -> np.ndarray:
         """Raw foreground mask (no clean-up) of one image.
 
         Parameters
@@ -455,8 +290,8 @@ def _shadow_pixels(x, bg, brightness, chromaticity) -> np.ndarray:
     return shadow
 
 
-def suppress_shadows(image, background, *, brightness=(0.4, 0.95),
-                     chromaticity: float = 0.08) -> np.ndarray:
+def suppress_shadows(image, background, *, brightness=_DEFAULT.shadow_brightness,
+                     chromaticity: float = _DEFAULT.shadow_chromaticity) -> np.ndarray:
     """Pixels that look like a cast shadow on the background (Horprasert et al. 1999).
 
     Parameters
@@ -499,8 +334,9 @@ class Mog2Background:
         Rate used by :meth:`foreground` (-1 = automatic, 0 = frozen).
     """
 
-    def __init__(self, *, history: int = 500, var_threshold: float = 16.0, shadows: bool = True,
-                 learning_rate: float = -1.0):
+    def __init__(self, *, history: int = _DEFAULT.mog2_history,
+                 var_threshold: float = _DEFAULT.var_threshold, shadows: bool = _DEFAULT.shadows,
+                 learning_rate: float = _DEFAULT.mog2_learning_rate):
         self.subtractor = cv2.createBackgroundSubtractorMOG2(int(history), float(var_threshold),
                                                              bool(shadows))
         self.learning_rate = float(learning_rate)
@@ -545,8 +381,10 @@ def _disk(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
 
-def clean_mask(mask, *, open_radius: int = 1, close_radius: int = 2, min_area: int = 50,
-               largest_only: bool = False, fill_holes: bool = False) -> np.ndarray:
+def clean_mask(mask, *, open_radius: int = _DEFAULT.open_radius,
+               close_radius: int = _DEFAULT.close_radius, min_area: int = _DEFAULT.min_area,
+               largest_only: bool = _DEFAULT.largest_only,
+               fill_holes: bool = _DEFAULT.fill_holes) -> np.ndarray:
     """Morphological clean-up of a raw foreground mask.
 
     Steps, in order: opening (radius ``open_radius``), closing (``close_radius``), largest
@@ -622,7 +460,7 @@ def segment(image, background, config: SilhouetteConfig | None = None, *,
     -------
     (H, W) bool ndarray
     """
-    config = config or SilhouetteConfig()
+    config = config or _DEFAULT
     if isinstance(background, GaussianBackground):
         raw = background.foreground(
             image, risk=config.risk_for(camera), shadows=config.shadows,

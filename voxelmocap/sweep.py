@@ -7,9 +7,10 @@ writes ``SWEEP/cells/<cell>/score.json``. Cells whose score file exists are skip
 interrupted or extended sweep only runs what is missing; the settings shared by all cells (data
 set, sequence, frames, δ, base config) are kept in ``SWEEP/settings.json`` and a re-run with
 other ones is refused rather than mixed in. The collected table goes to
-``SWEEP/sweep.csv`` and, per (voxel size, cameras), a heatmap of MMTA over ``N_L × N_p``
-(``SWEEP/mmta_<voxel>mm_<cameras>cams.png``) like the paper's Fig. 4, with the cheapest cell
-(smallest ``N_L · N_p``) that reaches the best MMTA marked.
+``SWEEP/sweep.csv``; :func:`best_cell` finds the cheapest cell (smallest ``N_L · N_p``) that
+reaches the best MMTA, which :func:`voxelmocap.viz.plots.plot_sweep_heatmaps` marks on one MMTA
+heatmap over ``N_L × N_p`` per (voxel size, cameras), like the paper's Fig. 4 (the ``sweep``
+command draws them; this module does not import ``viz``).
 
 Tasks run on a local Dask cluster (one single-threaded worker process per core by default) or on
 an existing cluster given by its scheduler address (``dask[distributed]`` is the optional
@@ -29,7 +30,8 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["SweepCell", "collect_rows", "plan_cells", "run_cell", "run_sweep"]
+__all__ = ["SweepCell", "best_cell", "collect_rows", "plan_cells", "run_cell", "run_sweep",
+           "write_table"]
 
 
 @dataclass(frozen=True)
@@ -136,6 +138,9 @@ def write_table(out_dir, rows: list[dict]) -> Path:
 def best_cell(mmta: np.ndarray, layers, particles, *, tolerance: float = 0.0):
     """Index ``(i, j)`` of the cheapest cell whose MMTA is within ``tolerance`` of the best.
 
+    The cost is ``N_L · N_p``; among cells of equal cost the higher MMTA wins, then the fewer
+    layers.
+
     Parameters
     ----------
     mmta : (n_layers, n_particles) ndarray
@@ -181,9 +186,9 @@ def _check_settings(out_dir: Path, settings: dict) -> None:
 def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particles,
               voxel_sizes=(20.0,), cameras=(7,), seeds: int = 1, frames=None,
               base_config_toml: str | None = None, scheduler: str | None = None,
-              n_workers: int | None = None, delta: float = 100.0, tolerance: float = 0.0,
-              log=print) -> tuple[Path, list[Path]]:
-    """Run (or complete) a sweep; returns the CSV path and the heatmap paths."""
+              n_workers: int | None = None, delta: float = 100.0,
+              log=print) -> tuple[Path, list[dict]]:
+    """Run (or complete) a sweep; returns the CSV path and the table rows (one dict per cell)."""
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:  # pragma: no cover - depends on the optional extra
@@ -229,8 +234,4 @@ def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particle
             if cluster is not None:
                 cluster.close()
     rows = collect_rows(out_dir)
-    csv_path = write_table(out_dir, rows)
-    from .viz.plots import plot_sweep_heatmaps
-
-    heatmaps = plot_sweep_heatmaps(rows, out_dir, tolerance=tolerance)
-    return csv_path, heatmaps
+    return write_table(out_dir, rows), rows

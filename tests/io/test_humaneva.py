@@ -59,8 +59,9 @@ def test_bad_inputs(tmp_path):
         ds.sequence("S1", "Jog_1")
     with pytest.raises(InputError, match="unknown subject"):
         ds.sequence("S7", "Walking_1")
-    with pytest.raises(InputError, match="no sync file for camera"):
-        ds.sequence("S1", "Walking_1", cameras=["C3"])
+    with pytest.raises(InputError, match=r"^--cameras: unknown camera 'C3' \(S1/Walking_1 has "
+                                         r"C1, C2, BW1\)$"):
+        ds.sequence("S1", "Walking_1", cameras=["C1", "C3"])
     seq = ds.sequence("S1", "Walking_1")
     with pytest.raises(InputError, match="outside the synchronised range"):
         list(seq.frames([13]))
@@ -106,6 +107,44 @@ def test_info_bad_input_is_one_line_exit_2(tmp_path, damage, message):
     assert len(lines) == 1, result.stderr
     assert message in lines[0]
     assert "Traceback" not in result.stderr
+
+
+def test_a_camera_without_sync_file_is_reported_not_dropped(tmp_path, capsys):
+    root = make_tiny_dataset(tmp_path / "d", cameras=("C1", "C2", "C3", "BW1"), leads=(5, 7, 4, 6))
+    ofs = root / "S1" / "Sync_Data" / "Walking_1_(C3).ofs"
+    ofs.unlink()
+    seq = Dataset(root).sequence("S1", "Walking_1")
+    assert seq.camera_names == ["C1", "C2", "BW1"] and seq.unsynced_cameras == ["C3"]
+    assert seq.problems == [f"camera C3 has a video but no sync file {ofs}: not used"]
+    # asked for by name, it is refused naming the missing file (not "unknown camera")
+    with pytest.raises(InputError, match=r"Walking_1_\(C3\)\.ofs: sync file not found: camera C3"):
+        Dataset(root).sequence("S1", "Walking_1", cameras=["c3", "C1"])
+    # info lists it as a problem of that camera and exits 1
+    assert main(["info", str(root)]) == 1
+    out = capsys.readouterr().out
+    assert f"      problem: camera C3 has a video but no sync file {ofs}: not used" in out
+    assert "1 problem(s) leave data unused" in out and not out.rstrip().endswith("are valid")
+    # dump names the cameras it uses and warns about the one it cannot
+    assert main(["dump", str(root), "--subject", "S1", "--sequence", "Walking_1", "--frames", "1:1",
+                 "--voxel-size", "100", "--no-progress",
+                 "--out", str(tmp_path / "v.h5")]) == 0
+    out = capsys.readouterr().out
+    assert f"warning: camera C3 has a video but no sync file {ofs}: not used" in out
+    assert "cameras C1,C2,BW1," in out
+
+
+def test_negative_image_start_is_refused(tmp_path):
+    root = make_tiny_dataset(tmp_path / "d")
+    ofs = root / "S1" / "Sync_Data" / "Walking_1_(BW1).ofs"
+    ofs.write_text("-5\n1\n2\n")
+    with pytest.raises(InputError, match=r"Walking_1_\(BW1\)\.ofs: im_st .* negative, got -5"):
+        Dataset(root).sequence("S1", "Walking_1")
+    result = run_cli("info", str(root))
+    assert result.returncode == 2 and "must not be negative" in result.stderr
+    # not used, it is reported and left out of the timeline instead of moving it
+    seq = Dataset(root).sequence("S1", "Walking_1", cameras=["C1", "C2"])
+    assert seq.starts == {"C1": 6, "C2": 8}
+    assert len(seq.problems) == 1 and seq.problems[0].startswith("camera BW1 (not used): ")
 
 
 def test_camera_subset_keeps_the_full_timeline(tmp_path):

@@ -15,7 +15,9 @@ def test_ofs_round_trip(tmp_path):
 @pytest.mark.parametrize(
     ("text", "message"),
     [("1\n2\n", "expected 3 numbers"), ("1\n2\n3\n4\n", "expected 3 numbers"),
-     ("1\nx\n2\n", "not a number"), ("1\n2\nnan\n", "not finite"), ("1\n2\n0\n", "mc_sc")],
+     ("1\nx\n2\n", "not a number"), ("1\n2\nnan\n", "not finite"), ("1\n2\n0\n", "mc_sc"),
+     ("-5\n1\n2\n", "im_st .* must not be negative, got -5"),
+     ("8\n-0.5\n2\n", "mc_st .* must not be negative, got -0.5")],
 )
 def test_bad_ofs(tmp_path, text, message):
     path = tmp_path / "bad.ofs"
@@ -34,7 +36,7 @@ def test_ofs_parser_fuzz(tmp_path_factory, text):
         values = read_ofs(path)
     except InputError:
         return
-    assert len(values) == 3 and values[2] > 0
+    assert len(values) == 3 and values[0] >= 0 and values[1] >= 0 and values[2] > 0
 
 
 def test_sync_worked_example_with_matlab_rounding():

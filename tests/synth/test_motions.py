@@ -91,10 +91,10 @@ def test_walking_knee_curve_has_the_double_hump_and_the_pelvis_bobs_smoothly():
 
 @pytest.mark.parametrize("kind", MOTIONS)
 def test_the_whole_body_stays_in_every_camera_of_the_default_rig(kind):
-    from voxelmocap.camera import Rig
+    from voxelmocap.io.calibration import read_rig
     from voxelmocap.synth import default_rig_path
 
-    rig = Rig.from_folder(default_rig_path())
+    rig = read_rig(default_rig_path())
     P = place_in_area(procedural_points(kind, np.arange(0, 12, 1 / 15), seed=1), 15.0)
     for cam in rig:
         assert cam.in_image(cam.project(P.reshape(-1, 3))).all(), cam.name

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from voxelmocap.camera import Camera, Rig
+from voxelmocap.io.calibration import read_rig
 from voxelmocap.synth import _render_kernels as K
 from voxelmocap.synth.body_shape import Primitives
 from voxelmocap.synth.render import Renderer, _shadow_discs
@@ -150,7 +151,7 @@ def test_primitive_boxes_change_nothing_on_a_real_body():
     from voxelmocap.synth import default_rig_path, procedural_points
     from voxelmocap.synth.body_shape import BodyShape, body_primitives
 
-    rig = Rig.from_folder(default_rig_path(), names=["C3", "BW4"])
+    rig = read_rig(default_rig_path(), names=["C3", "BW4"])
     renderer = Renderer(rig)
     shape = BodyShape.for_subject("S3", 1800)
     for kind in ("jog", "throwcatch"):

@@ -83,11 +83,6 @@ class BodyModel:
 
     # ----------------------------------------------------------------------------- builders
     @classmethod
-    def from_file(cls, path) -> BodyModel:
-        """Model of the subject described by a ``<Subject>_body.toml`` file."""
-        return cls(BodyDimensions.from_file(path))
-
-    @classmethod
     def from_landmarks(cls, landmarks) -> BodyModel:
         """Model whose limb lengths are measured from ground-truth landmarks ``(F, 15, 3)``."""
         return cls(BodyDimensions.from_landmarks(landmarks))

@@ -9,7 +9,7 @@ to a part with base centre ``c`` when ``t = (p − c)·n ∈ [0, L]`` and
 
 :class:`BodyDimensions` holds a subject's skeleton (lengths, the contract of the
 ``<Subject>_body.toml`` file, see ``docs/body_model.md``) and flesh (half-widths); it comes from a
-body file (:meth:`BodyDimensions.from_file`), from ground-truth landmarks
+body file (:func:`voxelmocap.io.body_file.read_body_file`), from ground-truth landmarks
 (:meth:`BodyDimensions.from_landmarks`) or from the average adult scaled to a height
 (:meth:`BodyDimensions.average`). :meth:`BodyDimensions.parts` turns it into the ten cones.
 
@@ -22,21 +22,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import InputError
 
-try:  # Python ≥ 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
-__all__ = ["PART_NAMES", "BodyDimensions", "Part", "frustum_volume"]
-
-FORMAT = "voxelmocap-body-1"
+__all__ = ["LENGTH_KEYS", "MAY_BE_ZERO", "PART_NAMES", "WIDTH_KEYS", "BodyDimensions", "Part",
+           "frustum_volume"]
 
 #: The ten parts, in the order used by every per-part array.
 PART_NAMES: tuple[str, ...] = (
@@ -58,12 +51,14 @@ HEAD_RATIO = 1.2
 ANKLE_HEIGHT_SHARE = 0.045
 
 _REFERENCE_HEIGHT = 1780.0
-_LENGTH_KEYS = ("torso", "head", "shoulder_offset", "shoulder_drop", "hip_offset", "hip_drop",
-                "upper_arm", "forearm", "thigh", "shin")
-_PAIR_LENGTHS = {"shoulder_offset", "shoulder_drop", "hip_offset", "hip_drop", "upper_arm",
-                 "forearm", "thigh", "shin"}
-_MAY_BE_ZERO = {"shoulder_drop", "hip_drop"}
-_WIDTH_KEYS = ("torso", "chest", "head", "upper_arm", "forearm", "thigh", "shin")
+#: Skeleton lengths (fields of :class:`BodyDimensions`), in body-file order; all but the
+#: torso and head are ``(left, right)`` pairs.
+LENGTH_KEYS = ("torso", "head", "shoulder_offset", "shoulder_drop", "hip_offset", "hip_drop",
+               "upper_arm", "forearm", "thigh", "shin")
+#: Lengths that may be 0 (shoulders and hips level with the thorax and pelvis).
+MAY_BE_ZERO = frozenset({"shoulder_drop", "hip_drop"})
+#: Flesh half-width pairs (fields ``w_<key>`` of :class:`BodyDimensions`), in body-file order.
+WIDTH_KEYS = ("torso", "chest", "head", "upper_arm", "forearm", "thigh", "shin")
 
 # The average adult of the body-file contract (mm); widths are half-widths.
 _AVERAGE_LENGTHS = {
@@ -105,8 +100,8 @@ class BodyDimensions:
     """A subject's skeleton lengths and flesh half-widths (mm); pairs are ``(left, right)``.
 
     The fields follow the ``[lengths_mm]`` and ``[widths_mm]`` tables of the body file; width
-    fields carry a ``w_`` prefix. Build with :meth:`average`, :meth:`from_file`,
-    :meth:`from_landmarks` or :meth:`from_dict`.
+    fields carry a ``w_`` prefix. Build with :meth:`average`, :meth:`from_landmarks` or from a
+    body file (:func:`voxelmocap.io.body_file.read_body_file`).
     """
 
     height: float
@@ -147,71 +142,6 @@ class BodyDimensions:
         s = height_mm / self.height
         fields = {k: _scale(v, s) for k, v in asdict(self).items() if k != "height"}
         return BodyDimensions(height=height_mm, **fields)
-
-    @classmethod
-    def from_file(cls, path) -> BodyDimensions:
-        """Read a ``<Subject>_body.toml`` file (format ``voxelmocap-body-1``).
-
-        Raises
-        ------
-        InputError
-            Naming the file and the key: unreadable file, wrong format, a missing
-            ``[lengths_mm]`` key, a non-positive, non-finite or wrongly typed value, an unknown key.
-        """
-        path = Path(path)
-        try:
-            with open(path, "rb") as fh:
-                data = tomllib.load(fh)
-        except OSError as exc:
-            raise InputError(path, f"cannot read body file ({exc.strerror or exc})") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(path, f"not valid TOML ({exc})") from None
-        return cls.from_dict(data, source=str(path))
-
-    @classmethod
-    def from_dict(cls, data: dict, *, source: str = "body file") -> BodyDimensions:
-        """Build from the parsed TOML tables of a body file; see :meth:`from_file`."""
-        if not isinstance(data, dict):
-            raise InputError(source, "expected a table at the top level")
-        unknown = sorted(set(data) - {"format", "subject", "lengths_mm", "widths_mm"})
-        if unknown:
-            raise InputError(source, f"unknown key {unknown[0]!r}")
-        if data.get("format") != FORMAT:
-            raise InputError(source, f"format must be {FORMAT!r}, got {data.get('format')!r}")
-        subject = _table(data, "subject", source)
-        unknown = sorted(set(subject) - {"name", "height_mm"})
-        if unknown:
-            raise InputError(source, f"unknown key 'subject.{unknown[0]}'")
-        if "name" in subject and not isinstance(subject["name"], str):
-            raise InputError(source, "subject.name must be a string")
-        if "height_mm" not in subject:
-            raise InputError(source, "missing key 'subject.height_mm'")
-        height = _number(subject["height_mm"], "subject.height_mm", source)
-
-        lengths_tab = _table(data, "lengths_mm", source)
-        unknown = sorted(set(lengths_tab) - set(_LENGTH_KEYS))
-        if unknown:
-            raise InputError(source, f"unknown key 'lengths_mm.{unknown[0]}'")
-        lengths = {}
-        for key in _LENGTH_KEYS:
-            if key not in lengths_tab:
-                raise InputError(source, f"missing key 'lengths_mm.{key}'")
-            name = f"lengths_mm.{key}"
-            zero_ok = key in _MAY_BE_ZERO
-            if key in _PAIR_LENGTHS:
-                lengths[key] = _pair(lengths_tab[key], name, source, zero_ok=zero_ok)
-            else:
-                lengths[key] = _number(lengths_tab[key], name, source)
-
-        widths = _default_widths(height)
-        if "widths_mm" in data:
-            widths_tab = _table(data, "widths_mm", source)
-            unknown = sorted(set(widths_tab) - set(_WIDTH_KEYS))
-            if unknown:
-                raise InputError(source, f"unknown key 'widths_mm.{unknown[0]}'")
-            for key, value in widths_tab.items():
-                widths[f"w_{key}"] = _pair(value, f"widths_mm.{key}", source)
-        return cls(height=height, **lengths, **widths)
 
     @classmethod
     def from_landmarks(cls, landmarks, *, source: str = "landmarks") -> BodyDimensions:
@@ -267,7 +197,7 @@ class BodyDimensions:
         }
         for key, value in lengths.items():
             values = value if isinstance(value, tuple) else (value,)
-            if key not in _MAY_BE_ZERO and min(values) <= 0:
+            if key not in MAY_BE_ZERO and min(values) <= 0:
                 raise InputError(source, f"measured {key} length is zero (coincident landmarks)")
         chain = (lengths["head"] + lengths["torso"] + float(np.mean(lengths["hip_drop"]))
                  + float(np.mean(lengths["thigh"])) + float(np.mean(lengths["shin"])))
@@ -275,16 +205,6 @@ class BodyDimensions:
         return cls(height=height, **lengths, **_default_widths(height))
 
     # ----------------------------------------------------------------------------- views
-    def to_dict(self, name: str = "subject") -> dict:
-        """The body-file tables (``format``, ``subject``, ``lengths_mm``, ``widths_mm``)."""
-        d = asdict(self)
-        return {
-            "format": FORMAT,
-            "subject": {"name": name, "height_mm": self.height},
-            "lengths_mm": {k: _plain(d[k]) for k in _LENGTH_KEYS},
-            "widths_mm": {k: _plain(d[f"w_{k}"]) for k in _WIDTH_KEYS},
-        }
-
     def replace(self, **changes) -> BodyDimensions:
         """A copy with some fields changed (see :func:`dataclasses.replace`)."""
         return replace(self, **changes)
@@ -322,37 +242,6 @@ def _scale(value, s):
     return float(value) * s
 
 
-def _plain(value):
-    return [float(v) for v in value] if isinstance(value, tuple) else float(value)
-
-
 def _default_widths(height: float) -> dict:
     s = height / _REFERENCE_HEIGHT
     return {f"w_{k}": _scale(v, s) for k, v in _AVERAGE_WIDTHS.items()}
-
-
-def _table(data: dict, key: str, source: str) -> dict:
-    if key not in data:
-        raise InputError(source, f"missing table [{key}]")
-    if not isinstance(data[key], dict):
-        raise InputError(source, f"[{key}] must be a table")
-    return data[key]
-
-
-def _number(value, name: str, source: str, *, zero_ok: bool = False) -> float:
-    # bool is an int subclass in Python; a TOML 'true' is a wrong type, not 1.0.
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(source, f"{name} must be a number, got {type(value).__name__}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise InputError(source, f"{name} must be finite, got {value}")
-    if value < 0 or (value == 0 and not zero_ok):
-        raise InputError(source, f"{name} must be {'≥' if zero_ok else '>'} 0, got {value}")
-    return value
-
-
-def _pair(value, name: str, source: str, *, zero_ok: bool = False) -> tuple[float, float]:
-    if not isinstance(value, list) or len(value) != 2:
-        raise InputError(source, f"{name} must be a [left, right] pair of numbers")
-    return (_number(value[0], f"{name}[0]", source, zero_ok=zero_ok),
-            _number(value[1], f"{name}[1]", source, zero_ok=zero_ok))

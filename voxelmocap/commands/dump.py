@@ -45,13 +45,10 @@ def _config(args):
     from ..config import TrackConfig, load_config, with_overrides
 
     config = load_config(args.config) if args.config else TrackConfig()
-    silhouette = None
-    if args.background:
-        silhouette = dict(config.measurement.silhouette, method=args.background)
     return with_overrides(config, **{
         "measurement.voxel_size": args.voxel_size,
         "measurement.min_views": args.min_views,
-        "measurement.silhouette": silhouette,
+        "measurement.silhouette.method": args.background,
     })
 
 

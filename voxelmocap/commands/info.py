@@ -11,7 +11,9 @@ def add_parser(subparsers) -> None:
         help="list subjects, sequences, cameras, frame counts and sync offsets; validate files",
         description="List what a HumanEva-I-layout data set holds and validate every file read: "
                     "calibration, sync files, videos (opened, first frame decoded and its size "
-                    "checked), background videos and ground-truth XML.",
+                    "checked), background videos, ground-truth XML and subject body files. Exit "
+                    "status: 0 all valid; 1 data that cannot be used (e.g. a camera with a video "
+                    "but no sync file), listed as problems; 2 a file that cannot be read.",
     )
     parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
     parser.add_argument("--subject", help="only this subject")
@@ -19,9 +21,18 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(run=run)
 
 
-def describe(dataset, subject=None, sequence=None) -> list[str]:
-    """Validate and describe a data set; returns the report lines (raises InputError on bad files)."""
+def describe(dataset, subject=None, sequence=None) -> tuple[list[str], list[str]]:
+    """Validate and describe a data set (raises InputError on a file that cannot be read).
+
+    Returns
+    -------
+    lines : list of str
+        The report.
+    problems : list of str
+        Data that cannot be used although present (``<subject>/<sequence>: <problem>``).
+    """
     lines = [f"data set {dataset.root}"]
+    problems = []
     subjects = [dataset.subject_dir(subject).name] if subject else dataset.subjects
     bdir = dataset.background_dir()
     for subj in subjects:
@@ -47,6 +58,9 @@ def describe(dataset, subject=None, sequence=None) -> list[str]:
                              f"ofs ({im_st:g}, {mc_st:g}, {mc_sc:g})  start {seq.starts[cam]:>4d}"
                              f"  backgrounds {n_bg}")
             lines.append(f"      ground truth source: {seq.ground_truth_source or 'none'}")
+            for problem in seq.problems:
+                lines.append(f"      problem: {problem}")
+                problems.append(f"{subj}/{name}: {problem}")
             gt = seq.ground_truth()
             if gt is None:
                 lines.append("      ground truth: none")
@@ -58,20 +72,25 @@ def describe(dataset, subject=None, sequence=None) -> list[str]:
                              f"{gt.frames.max()}), {n_valid} fully enabled")
             body = seq.body_file
             if body is not None:
-                from ..body import BodyModel
+                from ..io.body_file import read_body_file
 
-                BodyModel.from_file(body)  # validates it
+                read_body_file(body)  # validates it
             lines.append(f"      subject body file: {body.name if body else 'none'}")
     if bdir is None:
         lines.append("  no Background folder")
-    lines.append("all files read are valid")
-    return lines
+    if problems:
+        lines.append(f"all files read are valid, but {len(problems)} problem(s) leave data unused:")
+        lines.extend(f"  {p}" for p in problems)
+    else:
+        lines.append("all files read are valid")
+    return lines, problems
 
 
 def run(args: argparse.Namespace) -> int:
     from ..io.humaneva import Dataset
 
     dataset = Dataset(args.dataset)
-    for line in describe(dataset, args.subject, args.sequence):
+    lines, problems = describe(dataset, args.subject, args.sequence)
+    for line in lines:
         print(line)
-    return 0
+    return 1 if problems else 0

@@ -57,18 +57,19 @@ def run(args: argparse.Namespace) -> int:
     from ..config import config_to_toml, load_config
     from ..io.humaneva import Dataset
     from ..sweep import run_sweep
+    from ..viz.plots import plot_sweep_heatmaps
 
     base = config_to_toml(load_config(args.config)) if args.config else None
     if args.cameras:
         cameras = _ints(args.cameras)
     else:
         cameras = [len(Dataset(args.dataset).sequence(args.subject, args.sequence).camera_names)]
-    csv_path, heatmaps = run_sweep(
+    csv_path, rows = run_sweep(
         args.dataset, args.subject, args.sequence, args.out, layers=_ints(args.layers),
         particles=_ints(args.particles), voxel_sizes=_floats(args.voxel_size), cameras=cameras,
         seeds=args.seeds, frames=args.frames, base_config_toml=base, scheduler=args.scheduler,
-        n_workers=args.workers, delta=args.delta, tolerance=args.tolerance)
+        n_workers=args.workers, delta=args.delta)
     print(f"table: {csv_path}")
-    for path in heatmaps:
+    for path in plot_sweep_heatmaps(rows, args.out, tolerance=args.tolerance):
         print(f"heatmap: {path}")
     return 0

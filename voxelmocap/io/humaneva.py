@@ -37,6 +37,7 @@ from ..joints import endpoints_to_landmarks
 from ._atomic import atomic_write_text
 from ._files import read_text_file
 from .body_pose_xml import BodyPoseSequence, read_body_pose_xml, write_body_pose_xml
+from .calibration import read_rig
 
 __all__ = [
     "BodyPoseSequence",
@@ -63,7 +64,8 @@ def read_ofs(path) -> tuple[float, float, float]:
     Raises
     ------
     InputError
-        Missing file, not exactly 3 numbers, text, NaN/inf, or a non-positive ``mc_sc``.
+        Missing file, not exactly 3 numbers, text, NaN/inf, a negative ``im_st`` or ``mc_st``
+        (1-based frame indices), or a non-positive ``mc_sc``.
     """
     path = Path(path)
     tokens = read_text_file(path, "sync file", encoding="ascii").split()
@@ -79,6 +81,14 @@ def read_ofs(path) -> tuple[float, float, float]:
         if not math.isfinite(value):
             raise InputError(path, f"value {token!r} is not finite")
         values.append(value)
+    # A negative start is a broken file, not a timing: taken as is, it would move the common
+    # timeline (sync_starts) and so the synchronised frames of every camera.
+    if values[0] < 0:
+        raise InputError(path, f"im_st (first image frame, 1-based) must not be negative, got "
+                               f"{values[0]:g}")
+    if values[1] < 0:
+        raise InputError(path, f"mc_st (matching mocap frame, 1-based) must not be negative, got "
+                               f"{values[1]:g}")
     if values[2] <= 0:
         raise InputError(path, f"mc_sc (mocap frames per image frame) must be > 0, got {values[2]}")
     return values[0], values[1], values[2]
@@ -323,17 +333,16 @@ class Sequence:
         if not ofs_files:
             raise InputError(sync_dir, f"no .ofs sync files for {name}")
         all_names = sort_camera_names(ofs_files)
+        #: cameras with a video of this sequence but no sync file: they cannot be used
+        self.unsynced_cameras: list[str] = sort_camera_names(
+            set(self._video_cameras()) - {c.upper() for c in all_names})
+        #: one line per camera left out although the sequence has data for it (for logs, ``info``)
+        self.problems: list[str] = [
+            f"camera {cam} has a video but no sync file {sync_dir / f'{name}_({cam}).ofs'}: "
+            "not used" for cam in self.unsynced_cameras]
         names = all_names
         if cameras is not None:
-            wanted = [c.strip() for c in cameras if c.strip()]
-            if not wanted:
-                raise InputError("--cameras", "no camera names given")
-            upper = {n.upper(): n for n in names}
-            missing = [c for c in wanted if c.upper() not in upper]
-            if missing:
-                raise InputError(sync_dir, f"{name}: no sync file for camera(s) "
-                                           f"{', '.join(missing)} (have {', '.join(names)})")
-            names = sort_camera_names(upper[c.upper()] for c in wanted)
+            names = self._select(cameras, all_names, sync_dir)
         self.camera_names: list[str] = names
         #: every camera with a sync file, used or not
         self.all_camera_names: list[str] = all_names
@@ -343,12 +352,45 @@ class Sequence:
         for cam in all_names:
             try:
                 timeline[cam] = read_ofs(ofs_files[cam])
-            except InputError:
+            except InputError as exc:
                 if cam in names:
                     raise
+                self.problems.append(f"camera {cam} (not used): {exc}; it is left out of the "
+                                     "common timeline")
         self.ofs = {cam: timeline[cam] for cam in names}
         starts, self.common_time, self.common_scaling = sync_starts(timeline)
         self.starts = {cam: starts[cam] for cam in names}
+
+    def _video_cameras(self) -> list[str]:
+        """Upper-case names of the cameras with a video (AVI or image folder) of this sequence."""
+        image_dir = _find_dir(self.subject_dir, "Image_Data")
+        if image_dir is None:
+            return []
+        out = []
+        for p in image_dir.iterdir():
+            m = _SEQ_FILE.match(p.name if p.is_dir() else p.stem)
+            if m and f"{m['action']}_{m['trial']}" == self.name and (
+                    p.is_dir() or p.suffix.lower() == ".avi"):
+                out.append(m["cam"].upper())
+        return out
+
+    def _select(self, cameras: Iterable[str], synced: list[str], sync_dir: Path) -> list[str]:
+        """The requested cameras (case-insensitive) in HumanEva order; each must have a sync file."""
+        wanted = [c.strip() for c in cameras if c.strip()]
+        if not wanted:
+            raise InputError("--cameras", "no camera names given")
+        upper = {n.upper(): n for n in synced}
+        unsynced = {c.upper(): c for c in self.unsynced_cameras}
+        for cam in wanted:
+            if cam.upper() in unsynced:
+                raise InputError(sync_dir / f"{self.name}_({unsynced[cam.upper()]}).ofs",
+                                 f"sync file not found: camera {unsynced[cam.upper()]} of "
+                                 f"{self.subject}/{self.name} cannot be synchronised")
+            if cam.upper() not in upper:
+                have = sort_camera_names([*synced, *self.unsynced_cameras])
+                raise InputError("--cameras", f"unknown camera {cam!r} ({self.subject}/{self.name} "
+                                              f"has {', '.join(have)})")
+        return sort_camera_names({upper[c.upper()] for c in wanted})
 
     # ------------------------------------------------------------------ calibration
     @cached_property
@@ -357,7 +399,7 @@ class Sequence:
         cal_dir = _find_dir(self.subject_dir, "Calibration_Data")
         if cal_dir is None:
             raise InputError(self.subject_dir, "no Calibration_Data folder")
-        return Rig.from_folder(cal_dir, names=self.camera_names)
+        return read_rig(cal_dir, names=self.camera_names)
 
     # ------------------------------------------------------------------ images
     def video_path(self, camera: str) -> Path:

@@ -9,8 +9,9 @@ clip's skeleton); widths come from the subject's :class:`BodyShape` (scaled by s
 per subject by a seed). Clothing colours per part: shirt, trousers, skin, hair, shoes.
 
 :func:`body_primitives` turns canonical points ``(20, 3)`` into flat arrays for the numba ray
-caster (:mod:`voxelmocap.synth._render_kernels`); :func:`subject_body` measures the subject file
-``<Subject>_body.toml`` (format ``voxelmocap-body-1``, see ``docs/synth.md``) from the truth.
+caster (:mod:`voxelmocap.synth._render_kernels`); :func:`subject_body` measures the subject's
+dimensions from the truth, which the writer stores as ``<Subject>_body.toml``
+(:mod:`voxelmocap.io.body_file`, see ``docs/synth.md``).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..body.shapes import BodyDimensions
 from .skeletons import CANONICAL_NAMES
 
 __all__ = ["BodyShape", "Primitives", "body_primitives", "subject_body"]
@@ -246,8 +248,8 @@ def body_primitives(points, shape: BodyShape) -> Primitives:
     return Primitives(np.array(caps), np.array(cap_col), np.array(ells), np.array(ell_col))
 
 
-def subject_body(points, shape: BodyShape, subject: str, *, height: float | None = None) -> dict:
-    """The subject file content (``voxelmocap-body-1``) measured from canonical points.
+def subject_body(points, shape: BodyShape, *, height: float | None = None) -> BodyDimensions:
+    """The subject's body-file dimensions measured from canonical points, rounded to 0.1 mm.
 
     Lengths are the means over frames of the ground-truth geometry, as a motion-capture lab would
     measure them from the skeleton; widths are the rendered flesh half-widths.
@@ -258,15 +260,13 @@ def subject_body(points, shape: BodyShape, subject: str, *, height: float | None
         Canonical points of the sequence (mm), grounded (floor at Z = 0).
     shape : BodyShape
         The rendered body's widths.
-    subject : str
-        Subject name.
     height : float, optional
         Standing stature (mm); default the highest head top in ``points``.
 
     Returns
     -------
-    dict
-        Ready for ``tomli_w.dumps``.
+    BodyDimensions
+        Lengths and half-widths (mm) for :func:`voxelmocap.io.body_file.write_body_file`.
     """
     P = np.asarray(points, dtype=float)
 
@@ -285,30 +285,24 @@ def subject_body(points, shape: BodyShape, subject: str, *, height: float | None
     sh = [offset_drop("thorax", f"{s}_shoulder") for s in "lr"]
     hp = [offset_drop("pelvis", f"{s}_hip") for s in "lr"]
     r = lambda x: round(float(x), 1)  # noqa: E731
-    pair = lambda a, b: [r(a), r(b)]  # noqa: E731
-    return {
-        "format": "voxelmocap-body-1",
-        "subject": {"name": subject, "height_mm": r(height if height is not None
-                                                   else np.max(P[:, _C["head_top"], 2]))},
-        "lengths_mm": {
-            "torso": r(seg("pelvis", "thorax")),
-            "head": r(seg("thorax", "head_top")),
-            "shoulder_offset": pair(sh[0][0], sh[1][0]),
-            "shoulder_drop": pair(sh[0][1], sh[1][1]),
-            "hip_offset": pair(hp[0][0], hp[1][0]),
-            "hip_drop": pair(hp[0][1], hp[1][1]),
-            "upper_arm": pair(seg("l_shoulder", "l_elbow"), seg("r_shoulder", "r_elbow")),
-            "forearm": pair(seg("l_elbow", "l_wrist"), seg("r_elbow", "r_wrist")),
-            "thigh": pair(seg("l_hip", "l_knee"), seg("r_hip", "r_knee")),
-            "shin": pair(seg("l_knee", "l_ankle"), seg("r_knee", "r_ankle")),
-        },
-        "widths_mm": {
-            "torso": pair(*shape.torso),
-            "chest": pair(*shape.chest),
-            "head": pair(shape.head[0], shape.head[1]),
-            "upper_arm": pair(shape.upper_arm, shape.upper_arm),
-            "forearm": pair(shape.forearm, shape.forearm),
-            "thigh": pair(shape.thigh, shape.thigh),
-            "shin": pair(shape.shin, shape.shin),
-        },
-    }
+    pair = lambda a, b: (r(a), r(b))  # noqa: E731
+    return BodyDimensions(
+        height=r(height if height is not None else np.max(P[:, _C["head_top"], 2])),
+        torso=r(seg("pelvis", "thorax")),
+        head=r(seg("thorax", "head_top")),
+        shoulder_offset=pair(sh[0][0], sh[1][0]),
+        shoulder_drop=pair(sh[0][1], sh[1][1]),
+        hip_offset=pair(hp[0][0], hp[1][0]),
+        hip_drop=pair(hp[0][1], hp[1][1]),
+        upper_arm=pair(seg("l_shoulder", "l_elbow"), seg("r_shoulder", "r_elbow")),
+        forearm=pair(seg("l_elbow", "l_wrist"), seg("r_elbow", "r_wrist")),
+        thigh=pair(seg("l_hip", "l_knee"), seg("r_hip", "r_knee")),
+        shin=pair(seg("l_knee", "l_ankle"), seg("r_knee", "r_ankle")),
+        w_torso=pair(*shape.torso),
+        w_chest=pair(*shape.chest),
+        w_head=pair(shape.head[0], shape.head[1]),
+        w_upper_arm=pair(shape.upper_arm, shape.upper_arm),
+        w_forearm=pair(shape.forearm, shape.forearm),
+        w_thigh=pair(shape.thigh, shape.thigh),
+        w_shin=pair(shape.shin, shape.shin),
+    )

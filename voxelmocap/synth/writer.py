@@ -152,8 +152,9 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     """
     from tqdm import tqdm
 
-    from ..camera import Rig
+    from ..io.body_file import write_body_file
     from ..io.body_pose_xml import write_body_pose_xml
+    from ..io.calibration import read_rig, write_rig
     from ..io.humaneva import write_ofs
     from .render import Renderer
 
@@ -162,7 +163,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     _check_options(frames, fps, noise, trial, subject, action, codec, background_frames)
     frames, trial = int(frames), int(trial)
     if rig is None or isinstance(rig, (str, os.PathLike)):
-        rig = Rig.from_folder(rig if rig is not None else default_rig_path())
+        rig = read_rig(rig if rig is not None else default_rig_path())
     if cameras:
         rig = rig.select(list(cameras))
     out_dir = Path(out_dir)
@@ -198,7 +199,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     height = (source.height if isinstance(source, ProceduralSource)
               else stature_estimate(truth))
     shape = BodyShape.for_subject(subject, height)
-    body = subject_body(truth, shape, subject, height=height)
+    body = subject_body(truth, shape, height=height)
     _check_body_consistency(out_dir / subject, seq, body, overwrite)
 
     created = not out_dir.exists()
@@ -207,7 +208,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         sdir = tmp / subject
-        rig.to_folder(sdir / "Calibration_Data")
+        write_rig(rig, sdir / "Calibration_Data")
         for sub in ("Image_Data", "Sync_Data", "Mocap_Data"):
             (sdir / sub).mkdir(parents=True, exist_ok=True)
         renderer = Renderer(rig, scene_seed=scene_seed)
@@ -254,9 +255,7 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
                  "Seed": seed, "FrameRate": f"{fps:g}"}
         write_body_pose_xml(sdir / "Mocap_Data" / f"{seq}.xml", np.arange(1, frames + 1),
                             endpoints_from_canonical(truth), attributes=attrs)
-        import tomli_w
-
-        (sdir / "Mocap_Data" / f"{subject}_body.toml").write_text(tomli_w.dumps(body))
+        write_body_file(sdir / "Mocap_Data" / f"{subject}_body.toml", body, subject)
         _remove_sequence(out_dir / subject, seq)
         _move_into(tmp, out_dir)
     finally:
@@ -271,9 +270,9 @@ BODY_KEYS = ("upper_arm", "forearm", "thigh", "shin")
 BODY_TOLERANCE = 2.0
 
 
-def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -> None:
+def _check_body_consistency(sdir: Path, seq: str, body, overwrite: bool) -> None:
     """Refuse to give a subject that has other sequences a body file from a different skeleton."""
-    import tomllib
+    from ..io.body_file import read_body_file
 
     path = sdir / "Mocap_Data" / f"{sdir.name}_body.toml"
     if not path.exists():
@@ -283,13 +282,13 @@ def _check_body_consistency(sdir: Path, seq: str, body: dict, overwrite: bool) -
     if not others:
         return
     try:
-        old = tomllib.loads(path.read_text())["lengths_mm"]
-    except (OSError, tomllib.TOMLDecodeError, KeyError):
-        raise InputError(path, "unreadable subject body file; remove it or choose another "
-                               "--subject") from None
+        old = read_body_file(path)
+    except InputError as exc:
+        raise InputError(path, f"unreadable subject body file ({exc.problem}); remove it or "
+                               "choose another --subject") from None
     for key in BODY_KEYS:
-        a = np.asarray(old.get(key, [np.nan, np.nan]), dtype=float)
-        b = np.asarray(body["lengths_mm"][key], dtype=float)
+        a = np.asarray(getattr(old, key), dtype=float)
+        b = np.asarray(getattr(body, key), dtype=float)
         if a.shape != b.shape or not np.all(np.abs(a - b) <= BODY_TOLERANCE):
             raise InputError(path, f"subject {sdir.name} already has other sequences with "
                                    f"another body ({key} {a.tolist()} mm, this motion "
