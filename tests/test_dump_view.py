@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from humaneva_fixture import _write_avi, frame_image, make_tiny_dataset
 
-from voxelmocap.camera import Rig
 from voxelmocap.carving import Carver
 from voxelmocap.cli import main
+from voxelmocap.io.calibration import read_rig
 from voxelmocap.io.voxels import VoxelDump
 from voxelmocap.surface import smooth_surface, surface_voxels
 
@@ -150,7 +150,7 @@ def test_black_camera_and_empty_frame_are_named_once(tmp_path, capsys):
                for line in lines)
     with VoxelDump(out) as dump:
         assert not dump.occupancy(3).any()
-        rig = Rig.from_folder(data / "S1" / "Calibration_Data", names=["C1", "BW1"])
+        rig = read_rig(data / "S1" / "Calibration_Data", names=["C1", "BW1"])
         for fr in (4, 5, 6):
             masks = dump.masks(fr)
             # C2's all-black frame is left out: the occupancy is what C1 and BW1 alone carve

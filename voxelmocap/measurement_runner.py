@@ -225,9 +225,9 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
         a PLY folder that is a file.
     """
     from .config import config_to_toml
+    from .frames import parse_frame_range
     from .io.humaneva import Dataset
     from .io.voxels import VoxelDumpWriter, write_ply
-    from .pipeline import parse_frame_range
 
     config = config or TrackConfig()
     out = Path(out)

@@ -22,6 +22,7 @@ import numpy as np
 
 from .config import TrackConfig, config_to_toml
 from .errors import InputError
+from .frames import parse_frame_range
 from .measurement_runner import MeasurementRunner  # re-export: it lived here
 
 __all__ = [
@@ -47,46 +48,6 @@ class TrackOutcome:
     init_method: str
     resumed_from: int  #: frames already done when the run started (0 for a fresh run)
     seconds_per_frame: float
-
-
-def parse_frame_range(text: str | None, available: np.ndarray) -> np.ndarray:
-    """Frames selected by ``"a:b"`` (inclusive, 1-based, either end optional) or ``"a,b,c"``.
-
-    Parameters
-    ----------
-    text : str or None
-        The selection; None selects every available frame.
-    available : (F,) ndarray of int
-        The frames that exist (sorted).
-
-    Raises
-    ------
-    InputError
-        Malformed text, or frames outside the available range.
-    """
-    available = np.asarray(available, dtype=int)
-    if text is None or text.strip() in ("", ":"):
-        return available
-    if len(available) == 0:
-        raise InputError("--frames", "the sequence has no synchronised frame in every camera")
-    lo_avail, hi_avail = int(available.min()), int(available.max())
-    try:
-        if ":" in text:
-            lo_text, hi_text = text.split(":", 1)
-            lo = int(lo_text) if lo_text.strip() else lo_avail
-            hi = int(hi_text) if hi_text.strip() else hi_avail
-            frames = np.arange(lo, hi + 1)
-        else:
-            frames = np.array(sorted({int(t) for t in text.split(",")}))
-    except ValueError:
-        raise InputError("--frames", f"expected A:B or a comma-separated list, got {text!r}") from None
-    if len(frames) == 0:
-        raise InputError("--frames", f"empty range {text!r}")
-    outside = np.setdiff1d(frames, available)
-    if len(outside):
-        raise InputError("--frames", f"frame {outside[0]} is outside the available frames "
-                                     f"{lo_avail}..{hi_avail}")
-    return frames
 
 
 #: Trunk angles that get the root rotation's noise, not the limbs' (see :func:`noise_std`).
