@@ -49,7 +49,11 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..errors import InputError
+    from ..io._outputs import check_output_dir
     from ..synth import generate
+
+    check_output_dir(args.out)
 
     unit = args.unit
     try:
@@ -57,10 +61,13 @@ def run(args: argparse.Namespace) -> int:
     except ValueError:
         pass
     cameras = [c.strip() for c in args.cameras.split(",") if c.strip()] if args.cameras else None
-    root = generate(args.out, motion=args.motion, frames=args.frames, subject=args.subject,
-                    action=args.action, trial=args.trial, rig=args.rig, fps=args.fps,
-                    seed=args.seed, noise=args.noise, cameras=cameras,
-                    progress=not args.no_progress, render_masks=args.masks, codec=args.codec,
-                    start=args.start, unit=unit, overwrite=args.overwrite)
+    try:
+        root = generate(args.out, motion=args.motion, frames=args.frames, subject=args.subject,
+                        action=args.action, trial=args.trial, rig=args.rig, fps=args.fps,
+                        seed=args.seed, noise=args.noise, cameras=cameras,
+                        progress=not args.no_progress, render_masks=args.masks,
+                        codec=args.codec, start=args.start, unit=unit, overwrite=args.overwrite)
+    except OSError as exc:  # e.g. the disk filled up or the folder turned read-only mid-way
+        raise InputError(args.out, f"cannot write the data set ({exc.strerror or exc})") from None
     print(f"wrote {root}")
     return 0

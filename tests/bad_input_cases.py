@@ -1,0 +1,152 @@
+"""The bad inputs a newcomer met (issue: "every bad input gets one clear line"), as data.
+
+Each case prepares a tiny HumanEva-layout data set (``tests/humaneva_fixture.py``), breaks one
+thing, and runs one command. ``tests/test_bad_inputs.py`` checks every case: exit code 2, one
+line on stderr naming the file (or option) and the problem, no traceback, nothing new left
+behind. ``scripts/bad_inputs_table.py`` runs the same cases and prints the Markdown table of
+``docs/bad_inputs.md`` with the messages as they are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str  #: what is wrong, as a user would say it
+    setup: Callable[[Path, Path], list[str]]  #: (data set, scratch folder) → argv
+    expect: tuple[str, ...]  #: substrings of the one-line message ("{data}", "{tmp}" expanded)
+
+
+def _track(data, tmp, *extra):
+    return ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--out",
+            str(tmp / "run"), "--no-progress", *extra]
+
+
+def _not_utf8(path: Path) -> None:
+    path.write_bytes(b'[filter]\nlayers = 3\n# caf\xe9\n')
+
+
+def _config_not_utf8(command):
+    def setup(data, tmp):
+        _not_utf8(tmp / "cfg.toml")
+        if command == "track":
+            return _track(data, tmp, "--config", str(tmp / "cfg.toml"))
+        if command == "dump":
+            return ["dump", str(data), "--subject", "S1", "--sequence", "Walking_1", "--out",
+                    str(tmp / "vox.h5"), "--config", str(tmp / "cfg.toml"), "--no-progress"]
+        return ["sweep", str(data), "--out", str(tmp / "sweep"), "--config", str(tmp / "cfg.toml")]
+    return setup
+
+
+def _sizes_not_utf8(data, tmp):
+    (data / "S1" / "Calibration_Data" / "sizes.toml").write_bytes(b"C1 = [640, 480] # \xff\n")
+    return ["info", str(data)]
+
+
+def _body_not_utf8(data, tmp):
+    (data / "S1" / "Mocap_Data" / "S1_body.toml").write_bytes(b"[subject]\nname = \"\xe9\"\n")
+    return _track(data, tmp)
+
+
+def _missing_ofs_camera(data, tmp):
+    (data / "S1" / "Sync_Data" / "Walking_1_(C2).ofs").unlink()
+    return _track(data, tmp, "--cameras", "C1,C2")
+
+
+def _negative_start(data, tmp):
+    (data / "S1" / "Sync_Data" / "Walking_1_(C1).ofs").write_text("-5\n1\n2\n")
+    return ["info", str(data)]
+
+
+def _unknown_camera(data, tmp):
+    return _track(data, tmp, "--cameras", "C1,C9")
+
+
+def _huge_voxels(data, tmp):
+    (tmp / "cfg.toml").write_text("[measurement]\nvoxel_size = 1e9\n")
+    return _track(data, tmp, "--config", str(tmp / "cfg.toml"))
+
+
+def _negative_frames(data, tmp):
+    return _track(data, tmp, "--frames", "-5:3")
+
+
+def _dump_out_is_folder(data, tmp):
+    (tmp / "existing").mkdir()
+    return ["dump", str(data), "--subject", "S1", "--sequence", "Walking_1", "--out",
+            str(tmp / "existing"), "--no-progress"]
+
+
+def _view_out_unwritable(data, tmp):
+    (tmp / "file").write_text("x")
+    (tmp / "vox.h5").write_bytes(b"")  # replaced below by a real dump in the test's setup
+    return ["view", str(tmp / "vox.h5"), "--frame", "1", "--out", str(tmp / "file" / "views")]
+
+
+def _synth_unwritable(data, tmp):
+    (tmp / "file").write_text("x")
+    return ["synth", str(tmp / "file" / "data"), "--frames", "3", "--no-progress"]
+
+
+def _overlay_gif(data, tmp):
+    return ["overlay", str(tmp / "run"), "--dataset", str(data), "--out", str(tmp / "x.gif")]
+
+
+def _overlay_fps_zero(data, tmp):
+    return ["overlay", str(tmp / "run"), "--dataset", str(data), "--out", str(tmp / "x.mp4"),
+            "--fps", "0"]
+
+
+def _gt_huge_coordinate(data, tmp):
+    from voxelmocap.io.body_pose_xml import read_body_pose_xml, write_body_pose_xml
+
+    gt_path = data / "S1" / "Mocap_Data" / "Walking_1.xml"
+    gt = read_body_pose_xml(gt_path)
+    write_body_pose_xml(tmp / "run" / "S1" / "Walking_1.xml", gt.frames[:3], gt.endpoints[:3])
+    text = gt_path.read_text()
+    i = text.index("<X>") + 3
+    gt_path.write_text(text[:i] + "1e308" + text[text.index("</X>", i):])
+    return ["evaluate", str(tmp / "run"), "--dataset", str(data)]
+
+
+def _evaluate_json_unwritable(data, tmp):
+    from voxelmocap.io.body_pose_xml import read_body_pose_xml, write_body_pose_xml
+
+    gt = read_body_pose_xml(data / "S1" / "Mocap_Data" / "Walking_1.xml")
+    write_body_pose_xml(tmp / "run" / "S1" / "Walking_1.xml", gt.frames[:3],
+                        gt.endpoints[:3] + np.array([10.0, 0.0, 0.0]))
+    (tmp / "file").write_text("x")
+    return ["evaluate", str(tmp / "run"), "--dataset", str(data), "--json",
+            str(tmp / "file" / "r.json")]
+
+
+CASES: list[Case] = [
+    Case("track --config: TOML file that is not UTF-8", _config_not_utf8("track"),
+         ("{tmp}/cfg.toml", "not UTF-8")),
+    Case("dump --config: TOML file that is not UTF-8", _config_not_utf8("dump"),
+         ("{tmp}/cfg.toml", "not UTF-8")),
+    Case("sweep --config: TOML file that is not UTF-8", _config_not_utf8("sweep"),
+         ("{tmp}/cfg.toml", "not UTF-8")),
+    Case("sizes.toml that is not UTF-8", _sizes_not_utf8, ("sizes.toml", "not UTF-8")),
+    Case("<Subject>_body.toml that is not UTF-8", _body_not_utf8, ("S1_body.toml", "not UTF-8")),
+    Case("a camera asked for has no .ofs sync file", _missing_ofs_camera,
+         ("Walking_1_(C2).ofs", "sync file not found")),
+    Case("negative image start in a .ofs file", _negative_start, ("Walking_1_(C1).ofs",)),
+    Case("--cameras names a camera the sequence does not have", _unknown_camera,
+         ("--cameras", "unknown camera 'C9'")),
+    Case("voxel_size = 1e9 in the config", _huge_voxels, ("voxel_size", "between")),
+    Case("--frames -5:3", _negative_frames, ("--frames", "-5")),
+    Case("dump --out names an existing folder", _dump_out_is_folder, ("{tmp}/existing",)),
+    Case("view --out below a file", _view_out_unwritable, ("{tmp}/file",)),
+    Case("synth into a place that cannot be created", _synth_unwritable, ("{tmp}/file",)),
+    Case("overlay --out x.gif (not a video format)", _overlay_gif, ("x.gif",)),
+    Case("overlay --fps 0", _overlay_fps_zero, ("frame rate must be a positive number",)),
+    Case("ground truth coordinate 1e308", _gt_huge_coordinate, ("Walking_1.xml", "1e308")),
+    Case("evaluate --json below a file", _evaluate_json_unwritable, ("{tmp}/file",)),
+]
