@@ -278,9 +278,9 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
     return out
 
 
-def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36) -> tuple[np.ndarray,
-                                                                                     str]:
-    """The most likely starting pose among the fitted hypotheses and the standing poses.
+def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36,
+                 n_best: int = 1, min_apart_mm: float = 150.0):
+    """The most likely starting pose(s) among the fitted hypotheses and the standing poses.
 
     Parameters
     ----------
@@ -291,10 +291,16 @@ def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36) -> 
         ``(P, 27) states → (P,)`` log-likelihoods of the frame.
     n_yaw : int
         Headings of the standing poses at the voxels' centre (the fallback).
+    n_best : int
+        How many poses to return. More than one lets a filter start from a mixture: far from
+        the truth the likelihood ranks a mirrored pose (facing the other way, left for right)
+        about as high as the right one, and a few frames of motion tell them apart.
+    min_apart_mm : float
+        Returned poses differ by at least this mean landmark distance (mm).
 
     Returns
     -------
-    state : (27,) float ndarray
+    states : (27,) float ndarray, or (n_best', 27) when ``n_best > 1`` (best first, n_best' ≤ n_best)
     description : str
         Which hypothesis won.
     """
@@ -305,7 +311,18 @@ def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36) -> 
     states = np.concatenate([np.array([h.state for h in hyps]).reshape(-1, model.n_dims),
                              standing])
     scores = np.asarray(log_likelihood(states), dtype=float)
-    best = int(np.argmax(scores))
-    if best < len(hyps):
-        return states[best], f"extremities fit ({hyps[best].label})"
-    return states[best], "standing pose at the voxels' centre (yaw search)"
+    order = np.argsort(-scores, kind="stable")
+    best = int(order[0])
+    how = (f"extremities fit ({hyps[best].label})" if best < len(hyps)
+           else "standing pose at the voxels' centre (yaw search)")
+    if n_best <= 1:
+        return states[best], how
+    landmarks = model.landmarks(states)
+    chosen = [best]
+    for i in order[1:]:
+        if len(chosen) == n_best:
+            break
+        apart = np.linalg.norm(landmarks[chosen] - landmarks[i], axis=2).mean(axis=1)
+        if apart.min() >= min_apart_mm:
+            chosen.append(int(i))
+    return states[chosen], how + f" and {len(chosen) - 1} other hypotheses"

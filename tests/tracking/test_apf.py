@@ -269,3 +269,23 @@ def test_run_equals_steps_and_calls_back():
     assert [s[0] for s in seen] == [1, 2, 3, 4, 5] and est.shape == (5, D)
     with pytest.raises(InputError, match="resampling"):
         AnnealedParticleFilter(80, 3, -INF, INF, 1.0, resampling="magic")
+
+
+def test_mixture_initialisation_draws_around_each_guess():
+    from voxelmocap.tracking import AnnealedParticleFilter
+
+    low, high = np.full(2, -100.0), np.full(2, 100.0)
+    pf = AnnealedParticleFilter(300, 1, low, high, np.ones(2), rng=np.random.default_rng(0))
+    guesses = np.array([[-50.0, 0.0], [50.0, 10.0], [0.0, -40.0]])
+    pf.initialise(guesses, 1.0)
+    for k, g in enumerate(guesses):
+        share = pf.particles[k::3]
+        assert len(share) == 100
+        np.testing.assert_allclose(share.mean(axis=0), g, atol=0.3)  # 100 draws of N(g, 1)
+    np.testing.assert_array_equal(pf._prior[0], guesses[0])
+    # One guess as (1, D) is the same draw as the plain (D,) form.
+    a = AnnealedParticleFilter(50, 1, low, high, np.ones(2), rng=np.random.default_rng(1))
+    b = AnnealedParticleFilter(50, 1, low, high, np.ones(2), rng=np.random.default_rng(1))
+    a.initialise(guesses[1], 2.0)
+    b.initialise(guesses[1:2], 2.0)
+    np.testing.assert_array_equal(a.particles, b.particles)

@@ -244,8 +244,10 @@ class AnnealedParticleFilter:
 
         Parameters
         ----------
-        mean : (D,) array_like
-            Initial state guess, in state units.
+        mean : (D,) or (K, D) array_like
+            Initial state guess, in state units; K guesses start a mixture: particle ``i`` is
+            drawn around guess ``i mod K`` (equal shares), and the first guess is the IAPF's
+            prior mean.
         std : float or (D,) array_like
             Its uncertainty (``>= 0``). ``(mean, std)`` is also the IAPF's prior.
 
@@ -254,16 +256,21 @@ class AnnealedParticleFilter:
         Weights become uniform, the estimate history and the counters are cleared (the initial
         guess is not taken as an estimate, so the velocity model starts from zero velocity).
         """
+        means = np.asarray(mean, dtype=np.float64)
+        if means.ndim == 2 and means.shape[0] >= 1 and means.shape[1] == self.dim:
+            mean, rows = means[0].copy(), means[np.arange(self._n) % means.shape[0]]
+        else:
+            rows = None
         try:
             mean = np.broadcast_to(np.asarray(mean, dtype=np.float64), (self.dim,)).copy()
             std = np.broadcast_to(np.asarray(std, dtype=np.float64), (self.dim,)).copy()
         except ValueError:
             raise InputError("initialise", f"mean and std must have {self.dim} values") from None
-        if np.any(~np.isfinite(mean)) or np.any(~np.isfinite(std)) or np.any(std < 0):
+        if np.any(~np.isfinite(means)) or np.any(~np.isfinite(std)) or np.any(std < 0):
             raise InputError("initialise", "mean must be finite and std finite and >= 0")
         self._prior = (mean, std)
-        self.particles = truncated_normal(np.broadcast_to(mean, (self._n, self.dim)), std,
-                                          self.low, self.high, self.rng)
+        centres = np.broadcast_to(mean, (self._n, self.dim)) if rows is None else rows
+        self.particles = truncated_normal(centres, std, self.low, self.high, self.rng)
         self.log_weights = np.zeros(self._n)
         self.log_likelihoods = None
         self._history = np.empty((0, self.dim))

@@ -1,0 +1,104 @@
+"""Accuracy without the answer: the five mocap clips tracked with no ground truth and no body file.
+
+What every real user has is videos and a calibration. This benchmark renders (or reuses) the five
+``../shared/mocap`` clips of ``bench_accuracy.py`` (never ``holdout/``), makes for each a copy of
+the data set *without* ``Mocap_Data`` (no body_pose XML, no ``<Subject>_body.toml``: videos,
+backgrounds, calibration and sync are linked, not copied), tracks the copy, and scores the
+result against the original ground truth. ``--with-answer`` tracks the original instead (first
+frame's ground truth and the body file), for the comparison the issue asks for.
+
+Usage::
+
+    python scripts/bench_no_answer.py --data /tmp/voxelmocap_acc/data --out /tmp/noanswer \\
+        [--seeds 3] [--frames 100] [--with-answer] [--clips Walking,Jog]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_accuracy import CLIPS, MOCAP
+
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.io.humaneva import Dataset
+from voxelmocap.io.reports import score_against
+from voxelmocap.pipeline import track_sequence
+from voxelmocap.synth import generate
+
+
+def stripped_copy(data: Path, subject: str, dest: Path) -> Path:
+    """``dest``: the data set with ``<subject>/Mocap_Data`` left out (links, not copies)."""
+    if dest.exists():
+        return dest
+    tmp = dest.with_name(dest.name + ".building")
+    shutil.rmtree(tmp, ignore_errors=True)
+    for path in data.rglob("*"):
+        rel = path.relative_to(data)
+        if rel.parts[0] not in (subject, "Background") or "Mocap_Data" in rel.parts:
+            continue
+        target = tmp / rel
+        if path.is_dir():
+            target.mkdir(parents=True, exist_ok=True)
+        else:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(path.resolve(), target)
+    tmp.rename(dest)
+    return dest
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", default="/tmp/voxelmocap_acc/data",
+                        help="rendered clips (made here when missing)")
+    parser.add_argument("--out", default="/tmp/voxelmocap_noanswer")
+    parser.add_argument("--frames", type=int, default=100)
+    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--clips", help="comma-separated subset of actions")
+    parser.add_argument("--with-answer", action="store_true",
+                        help="track the original data (ground truth of frame 1, body file)")
+    args = parser.parse_args()
+    data, out = Path(args.data), Path(args.out)
+    wanted = set(args.clips.split(",")) if args.clips else None
+    config = TrackConfig()
+    if not args.with_answer:
+        config = with_overrides(config, **{"init.method": "voxels"})
+    rows = {}
+    for index, (clip, action, start) in enumerate(CLIPS):
+        if wanted and action not in wanted:
+            continue
+        subject, seq_name = f"S{index + 1}", f"{action}_1"
+        if not (data / subject / "Mocap_Data" / f"{seq_name}.xml").exists():
+            if not MOCAP.is_dir():
+                raise SystemExit(f"{MOCAP} is not available")
+            generate(data, motion=str(MOCAP / clip), frames=args.frames, subject=subject,
+                     action=action, start=start, progress=True)
+        gt_path = Dataset(data).sequence(subject, seq_name).ground_truth_path
+        source = data if args.with_answer else stripped_copy(data, subject,
+                                                              out / "stripped" / subject)
+        per_seed = []
+        for seed in range(args.seeds):
+            run = out / ("with_answer" if args.with_answer else "no_answer") / f"seed{seed}"
+            t0 = time.perf_counter()
+            outcome = track_sequence(source, subject, seq_name, run, config=config, seed=seed,
+                                     resume=True, progress=False, log=lambda _m: None)
+            wall = time.perf_counter() - t0
+            sc = score_against(outcome.result_path, gt_path, delta=100.0).scores
+            per_seed.append((sc.mu_mm, sc.mmta_pct))
+            print(f"{action:<9s} seed {seed}: μ {sc.mu_mm:7.1f} mm  MMTA {sc.mmta_pct:5.1f} %  "
+                  f"({wall:.0f} s; init: {outcome.init_method})", flush=True)
+        rows[action] = per_seed
+    allv = np.array([np.mean(v, axis=0) for v in rows.values()])
+    print(f"mean over clips: μ {allv[:, 0].mean():.1f} mm, MMTA {allv[:, 1].mean():.1f} %; "
+          f"worst clip μ {allv[:, 0].max():.1f} mm")
+    (out / ("with_answer.json" if args.with_answer else "no_answer.json")).write_text(
+        json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
