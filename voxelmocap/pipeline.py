@@ -14,6 +14,7 @@ Only this module, :mod:`voxelmocap.io` and the command line touch files.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +23,10 @@ import numpy as np
 
 from .config import TrackConfig, config_to_toml
 from .errors import InputError
+
+# Back-compatible names: the tracker owns the noise profile, the filter and the initialisation.
+from .tracker import BodyTracker, build_filter, ground_truth_landmarks, initial_state_from_voxels
+from .tracker import noise_profile as noise_std
 
 __all__ = [
     "MeasurementRunner",
@@ -86,53 +91,6 @@ def parse_frame_range(text: str | None, available: np.ndarray) -> np.ndarray:
         raise InputError("--frames", f"frame {outside[0]} is outside the available frames "
                                      f"{lo_avail}..{hi_avail}")
     return frames
-
-
-#: Trunk angles that get the root rotation's noise, not the limbs' (see :func:`noise_std`).
-_TRUNK_ANGLES = ("waist_flex", "waist_side", "waist_twist", "neck_flex", "neck_side")
-
-
-def noise_std(model, config: TrackConfig) -> np.ndarray:
-    """(27,) per-frame propagation noise (mm, rad): translation, root rotation and joint groups.
-
-    The root, waist and neck angles get ``rotation_std_rad``; shoulders, elbows, hips and knees
-    ``joint_std_rad``. The trunk moves as slowly as the root, and the pelvis orientation is nearly
-    unobservable (no part spans the pelvis), so a compensating root pitch + waist flexion + hip
-    flexion change costs almost nothing in the likelihood. With the limbs' larger noise on the
-    waist the filter random-walked along that direction (root pitch −40°, waist +44° after 6
-    frames of a walk) and lost the legs. Measured with ``scripts/study_tracking.py`` (synthetic,
-    7 cameras, 6 × 300 particles, ``joint_std_rad`` 0.1): trunk on the limbs' noise → on the
-    root's: walk μ 58 → 59 mm (5 seeds, no change), jog 67 → 60 mm, box 68 → 56 mm (3 seeds);
-    ``docs/benchmarks.md``, tracking accuracy study.
-    """
-    fc = config.filter
-    std = np.full(model.n_dims, fc.joint_std_rad)
-    std[:3] = fc.translation_std_mm
-    std[3:6] = fc.rotation_std_rad
-    names = list(model.state_names)
-    std[[names.index(n) for n in _TRUNK_ANGLES]] = fc.rotation_std_rad
-    return std
-
-
-def build_filter(model, config: TrackConfig, rng):
-    """The annealed particle filter of a config, over the body model's legal ranges."""
-    from .tracking import AnnealedParticleFilter, RandomWalk, TwoStateElbow, VelocityModel
-
-    fc = config.filter
-    names = list(model.state_names)
-    # Angles that wrap (heading) get no velocity drift across the ±π seam problems; all others do.
-    if fc.dynamics == "random_walk":
-        dynamics = RandomWalk()
-    elif fc.dynamics == "velocity":
-        dynamics = VelocityModel(0.7)
-    else:
-        dynamics = TwoStateElbow(
-            [names.index("l_shoulder_rot"), names.index("r_shoulder_rot")],
-            [names.index("l_elbow"), names.index("r_elbow")], factor=0.7)
-    return AnnealedParticleFilter(
-        fc.particles, fc.layers, model.low, model.high, noise_std(model, config),
-        strategy=fc.strategy, rng=rng, survival=fc.survival, noise_decay=fc.noise_decay,
-        dynamics=dynamics)
 
 
 class MeasurementRunner:
@@ -230,30 +188,6 @@ def body_model_for(seq, gt=None):
     return BodyModel(), "average adult (no body file or ground truth)"
 
 
-def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36) -> np.ndarray:
-    """A standing pose at the voxel blob's centroid, facing the best of ``n_yaw`` headings.
-
-    Raises
-    ------
-    InputError
-        When the first frame has no occupied voxel.
-    """
-    from .likelihood import log_likelihood
-
-    occ = measurement.occupancy
-    idx = np.argwhere(occ)
-    if len(idx) == 0:
-        raise InputError("first frame", "no occupied voxel: cannot initialise from the voxels")
-    centre = measurement.grid.centre_of(idx).mean(axis=0)
-    base = model.default_state()
-    base[0], base[1] = centre[0], centre[1]
-    yaw_i = list(model.state_names).index("root_yaw")
-    candidates = np.repeat(base[None], n_yaw, axis=0)
-    candidates[:, yaw_i] = np.linspace(-np.pi, np.pi, n_yaw, endpoint=False)
-    scores = log_likelihood(measurement, model, candidates, variances=variances)
-    return candidates[int(np.argmax(scores))]
-
-
 def _result_paths(out_dir: Path, seq) -> tuple[Path, Path, Path]:
     base = Path(out_dir) / seq.subject / seq.name
     return base.with_suffix(".h5"), base.with_suffix(".xml"), base.with_suffix(".bvh")
@@ -293,10 +227,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     fps : float
         Frame rate written to the BVH.
     """
-    from .body import fit_to_landmarks
     from .io.humaneva import Dataset
-    from .io.results import TrackResult, read_result, write_result
-    from .likelihood import log_likelihood, log_likelihood_from_scores, part_scores
+    from .io.results import read_result
 
     config = config or TrackConfig()
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
@@ -316,7 +248,6 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
     config_text = config_to_toml(config)
     model, model_source = body_model_for(seq, gt)
-    variances = config.likelihood.variances
 
     meta = {
         "config": config_text, "seed": int(seed), "dataset": str(Path(dataset_root).resolve()),
@@ -324,11 +255,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         "cameras": ",".join(seq.camera_names), "body_model": model_source,
         "frames_requested": ",".join(str(int(f)) for f in selected),
     }
-    rng = np.random.default_rng(seed)
-    pf = build_filter(model, config, rng)
-    done: dict[str, list] = {k: [] for k in ("frames", "state", "landmarks", "endpoints",
-                                             "part_scores", "ess", "betas", "seconds",
-                                             "log_likelihood", "map_state")}
+    tracker = BodyTracker(model, config, seed=seed)
+    done = _Rows()
     resumed_from = 0
     init_method = None
     if result_path.exists():
@@ -352,9 +280,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 return TrackOutcome(result_path, xml_path, bvh_path, previous.frames,
                                     str(previous.attrs.get("init_method")), len(previous),
                                     float(np.mean(previous.seconds)))
-            pf.set_state(previous.checkpoint)
-            for key in done:
-                done[key] = list(getattr(previous, key))
+            tracker.set_state(previous.checkpoint)
+            done.extend(previous)
             resumed_from = len(previous)
             init_method = str(previous.attrs.get("init_method"))
             log(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
@@ -377,45 +304,29 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         for frame_number, images in seq.frames(todo):
             t0 = time.perf_counter()
             measurement = stage.measure(images)
-            if pf.particles is None:
-                init_method, mean = _initial_state(config, gt, frame_number, model,
-                                                   measurement, variances, fit_to_landmarks)
-                spread = config.init.spread * noise_std(model, config)
-                pf.initialise(mean, spread)
+            if not tracker.initialised:
+                init_method = tracker.initialise(measurement, ground_truth_landmarks(gt, frame_number),
+                                                 frame=frame_number)
                 log(f"initialised from {init_method}")
-
-            def ll(states, measurement=measurement):
-                return log_likelihood(measurement, model, states, variances=variances)
-
-            estimate = pf.step(ll)
-            est = model.clip(estimate[None])
-            done["frames"].append(int(frame_number))
-            done["state"].append(est[0])
-            done["landmarks"].append(model.landmarks(est)[0])
-            done["endpoints"].append(model.endpoints(est)[0])
-            scores = part_scores(measurement, model, est)[0]
-            done["part_scores"].append(scores)
-            done["ess"].append(np.asarray(pf.layer_ess, dtype=float))
-            done["betas"].append(np.asarray(pf.layer_betas, dtype=float))
-            done["log_likelihood"].append(
-                float(log_likelihood_from_scores(scores, variances=variances)))
-            done["map_state"].append(np.asarray(pf.map_particle, dtype=float))
-            done["seconds"].append(time.perf_counter() - t0)
-            attrs = dict(meta, init_method=init_method,
-                         complete=len(done["frames"]) == len(selected))
-            write_result(result_path, _stack(done, model, attrs, pf.get_state(), TrackResult))
+            record = tracker.step(measurement, frame=frame_number)
+            # The file's seconds are the whole frame's: measurement, initialisation and filter.
+            record = dataclasses.replace(record, seconds=time.perf_counter() - t0)
+            done.append(record)
+            attrs = dict(meta, init_method=init_method, complete=len(done) == len(selected))
+            _write_rows(result_path, done, model, attrs, tracker.get_state())
             if bar is not None:
-                bar.set_postfix(loglik=f"{pf.mean_log_likelihood:.2f}",
-                                fps=f"{1.0 / max(done['seconds'][-1], 1e-9):.2f}")
+                bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
+                                fps=f"{1.0 / max(record.seconds, 1e-9):.2f}")
                 bar.update(1)
     finally:
         if bar is not None:
             bar.close()
 
-    _write_exports(xml_path, bvh_path, seq, gt, np.array(done["frames"]),
-                   np.array(done["endpoints"]), fps)
-    return TrackOutcome(result_path, xml_path, bvh_path, np.array(done["frames"]), init_method,
-                        resumed_from, float(np.mean(done["seconds"])))
+    frames_done = np.array(done.values["frames"])
+    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done.values["endpoints"]),
+                   fps)
+    return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
+                        resumed_from, float(np.mean(done.values["seconds"])))
 
 
 def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
@@ -434,30 +345,40 @@ def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
     write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
 
 
-def _initial_state(config, gt, frame_number, model, measurement, variances, fit_to_landmarks):
-    from .joints import endpoints_to_landmarks
-
-    method = config.init.method
-    row = -1 if gt is None else int(gt.index_of([frame_number])[0])
-    has_gt = row >= 0 and bool(gt.enabled[row].all())
-    if method == "ground_truth" and not has_gt:
-        raise InputError("init.method", f"ground truth of frame {frame_number} is not available")
-    if method == "ground_truth" or (method == "auto" and has_gt):
-        landmarks = endpoints_to_landmarks(gt.endpoints[row])
-        return f"the ground truth of frame {frame_number}", fit_to_landmarks(model, landmarks)
-    return (f"the voxels of frame {frame_number} (centroid + yaw search)",
-            initial_state_from_voxels(measurement, model, variances))
+_PER_FRAME = ("frames", "state", "landmarks", "endpoints", "part_scores", "ess", "betas",
+              "seconds", "log_likelihood", "map_state")
 
 
-def _stack(done, model, attrs, checkpoint, result_cls):
-    return result_cls(
-        frames=np.array(done["frames"], dtype=int),
-        state=np.array(done["state"]), landmarks=np.array(done["landmarks"]),
-        endpoints=np.array(done["endpoints"]), part_scores=np.array(done["part_scores"]),
-        ess=np.array(done["ess"]), betas=np.array(done["betas"]),
-        seconds=np.array(done["seconds"]), log_likelihood=np.array(done["log_likelihood"]),
-        map_state=np.array(done["map_state"]), state_names=list(model.state_names),
-        part_names=[p.name for p in model.parts], attrs=attrs, checkpoint=checkpoint)
+class _Rows:
+    """The per-frame arrays of the frames done so far."""
+
+    def __init__(self):
+        self.values: dict[str, list] = {k: [] for k in _PER_FRAME}
+
+    def __len__(self) -> int:
+        return len(self.values["frames"])
+
+    def append(self, record) -> None:
+        for key in _PER_FRAME:
+            self.values[key].append(record.frame if key == "frames" else getattr(record, key))
+
+    def extend(self, result) -> None:
+        for key in _PER_FRAME:
+            self.values[key].extend(list(getattr(result, key)))
+
+
+def _write_rows(path, done: _Rows, model, attrs, checkpoint) -> None:
+    from .io.results import TrackResult, write_result
+
+    v = done.values
+    write_result(path, TrackResult(
+        frames=np.array(v["frames"], dtype=int),
+        state=np.array(v["state"]), landmarks=np.array(v["landmarks"]),
+        endpoints=np.array(v["endpoints"]), part_scores=np.array(v["part_scores"]),
+        ess=np.array(v["ess"]), betas=np.array(v["betas"]),
+        seconds=np.array(v["seconds"]), log_likelihood=np.array(v["log_likelihood"]),
+        map_state=np.array(v["map_state"]), state_names=list(model.state_names),
+        part_names=[p.name for p in model.parts], attrs=attrs, checkpoint=checkpoint))
 
 
 def _progress(total: int, initial: int, enabled: bool, desc: str):
