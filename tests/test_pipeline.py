@@ -146,3 +146,39 @@ def test_without_background_videos_falls_back_to_mog2(walk_dataset, tmp_path):
                              progress=False, log=messages.append)
     assert any("using MOG2" in m for m in messages)
     assert len(read_result(outcome.result_path)) == 2
+
+
+def test_frame_rate_comes_from_the_data(tmp_path):
+    """A 30 fps sequence: the BVH plays at 30 fps and the result file says 30 (not 60)."""
+    from voxelmocap.io.bvh import read_bvh
+    from voxelmocap.synth import generate
+
+    data = generate(tmp_path / "data", motion="walk", frames=2, cameras=["C1", "C2", "BW1"],
+                    fps=30.0, progress=False, background_frames=10, seed=1)
+    outcome = track_sequence(data, "S1", "Walking_1", tmp_path / "run",
+                             config=with_overrides(SMALL, **{"filter.layers": 1,
+                                                             "filter.particles": 20}),
+                             progress=False, log=lambda *_: None)
+    assert "Frame Time: 0.03333333" in outcome.bvh_path.read_text()
+    assert read_bvh(outcome.bvh_path).fps == pytest.approx(30.0)
+    assert read_result(outcome.result_path).attrs["frame_rate"] == 30.0
+    # an explicit rate wins; an impossible one is refused before anything is written
+    again = track_sequence(data, "S1", "Walking_1", tmp_path / "run25", frames="1:1", fps=25.0,
+                           config=with_overrides(SMALL, **{"filter.layers": 1,
+                                                           "filter.particles": 20}),
+                           progress=False, log=lambda *_: None)
+    assert read_bvh(again.bvh_path).fps == pytest.approx(25.0)
+    with pytest.raises(InputError, match="frame rate"):
+        track_sequence(data, "S1", "Walking_1", tmp_path / "run0", fps=0.0, progress=False,
+                       log=lambda *_: None)
+    assert not (tmp_path / "run0").exists()
+
+
+def test_frame_rate_of_image_folders_is_humaneva_i(tmp_path):
+    from humaneva_fixture import make_tiny_dataset
+
+    from voxelmocap.io.humaneva import Dataset
+
+    root = make_tiny_dataset(tmp_path / "data", image_folder_camera="C1")
+    assert Dataset(root).sequence("S1", "Walking_1", cameras=["C1"]).frame_rate == 60.0
+    assert Dataset(root).sequence("S1", "Walking_1").frame_rate == 60.0  # the AVIs' metadata

@@ -196,7 +196,7 @@ def _result_paths(out_dir: Path, seq) -> tuple[Path, Path, Path]:
 def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                    config: TrackConfig | None = None, frames: str | None = None,
                    cameras=None, seed: int = 0, resume: bool = False, overwrite: bool = False,
-                   progress: bool = True, log=print, fps: float = 60.0) -> TrackOutcome:
+                   progress: bool = True, log=print, fps: float | None = None) -> TrackOutcome:
     """Track one sequence and write its results (see the module docstring).
 
     Parameters
@@ -224,8 +224,9 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         Show a progress bar.
     log : callable
         Where one-line messages go.
-    fps : float
-        Frame rate written to the BVH.
+    fps : float, optional
+        Frame rate (Hz) of the BVH and the result file; default the sequence's own
+        (``Sequence.frame_rate``: the video metadata, else HumanEva-I's 60 Hz).
     """
     from .io.humaneva import Dataset
     from .io.results import read_result
@@ -248,12 +249,15 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
     config_text = config_to_toml(config)
     model, model_source = body_model_for(seq, gt)
+    fps = seq.frame_rate if fps is None else float(fps)
+    if not (np.isfinite(fps) and fps > 0):
+        raise InputError("fps", f"the frame rate must be a finite number > 0, got {fps!r}")
 
     meta = {
         "config": config_text, "seed": int(seed), "dataset": str(Path(dataset_root).resolve()),
         "subject": seq.subject, "action": seq.action, "trial": seq.trial,
         "cameras": ",".join(seq.camera_names), "body_model": model_source,
-        "frames_requested": ",".join(str(int(f)) for f in selected),
+        "frames_requested": ",".join(str(int(f)) for f in selected), "frame_rate": fps,
     }
     tracker = BodyTracker(model, config, seed=seed)
     done = _Rows()
