@@ -47,27 +47,27 @@ def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
 
 @pytest.mark.parametrize("method", ["gaussian", "mog2"])
 def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch, method):
-    import voxelmocap.io.results as results
+    from voxelmocap.io.results import ResultWriter
 
     config = with_overrides(SMALL, **{"measurement.silhouette": {"method": method}})
     if method == "mog2":  # the adaptive model must be replayed on resume
         config = with_overrides(config, **{"filter.layers": 1, "filter.particles": 40})
     full = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "full", config=config,
                           frames="1:5", seed=7, progress=False, log=lambda *_: None)
-    real_write = results.write_result
+    real_append = ResultWriter.append
     calls = {"n": 0}
 
-    def interrupted(path, result):
+    def interrupted(self, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 3:
             raise KeyboardInterrupt
-        real_write(path, result)
+        real_append(self, *args, **kwargs)
 
-    monkeypatch.setattr(results, "write_result", interrupted)
+    monkeypatch.setattr(ResultWriter, "append", interrupted)
     with pytest.raises(KeyboardInterrupt):
         track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
                        frames="1:5", seed=7, progress=False, log=lambda *_: None)
-    monkeypatch.setattr(results, "write_result", real_write)
+    monkeypatch.setattr(ResultWriter, "append", real_append)
     partial = read_result(tmp_path / "part" / "S1" / "Walking_1.h5")
     assert len(partial) == 2 and not partial.attrs["complete"]
     with pytest.raises(InputError, match="use --resume"):
@@ -182,3 +182,46 @@ def test_frame_rate_of_image_folders_is_humaneva_i(tmp_path):
     root = make_tiny_dataset(tmp_path / "data", image_folder_camera="C1")
     assert Dataset(root).sequence("S1", "Walking_1", cameras=["C1"]).frame_rate == 60.0
     assert Dataset(root).sequence("S1", "Walking_1").frame_rate == 60.0  # the AVIs' metadata
+
+
+def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
+    """`track` killed (SIGKILL) at seeded random moments: the file always reads and holds a
+    prefix of the uninterrupted run's frames; --resume then finishes bit-identically, leaving
+    only the three outputs in the folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    args = ["--frames", "1:6", "--layers", "2", "--particles", "30", "--seed", "4",
+            "--no-progress"]
+    assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                 "--out", str(tmp_path / "full"), *args]) == 0
+    full = read_result(tmp_path / "full" / "S1" / "Walking_1.h5")
+    rng = np.random.default_rng(15)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    for k in range(3):
+        run = tmp_path / f"killed{k}"
+        path = run / "S1" / "Walking_1.h5"
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "voxelmocap.cli", "track", str(walk_dataset), "--subject", "S1",
+             "--sequence", "Walking_1", "--out", str(run), *args], env=env,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wait_for = int(rng.integers(0, 6))  # committed frames to wait for, then a bit more
+        while proc.poll() is None and (len(read_result(path)) if path.exists() else 0) < wait_for:
+            time.sleep(0.005)
+        time.sleep(rng.uniform(0.0, 0.3))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        if path.exists():  # (not when killed before its first frame)
+            partial = read_result(path)
+            np.testing.assert_array_equal(partial.state, full.state[:len(partial)])
+        assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                     "--out", str(run), "--resume", *args]) == 0
+        resumed = read_result(path)
+        for name in ("frames", "state", "map_state", "landmarks", "log_likelihood", "ess"):
+            np.testing.assert_array_equal(getattr(resumed, name), getattr(full, name))
+        assert resumed.attrs["complete"]
+        assert sorted(p.name for p in path.parent.iterdir()) == \
+            ["Walking_1.bvh", "Walking_1.h5", "Walking_1.xml"]

@@ -3,9 +3,10 @@
 :func:`track_sequence` runs the whole chain for one sequence (decode → background subtraction →
 carving → surface → annealed particle filter over the body model's likelihood) and writes
 
-* ``RUN/<Subject>/<Action>_<Trial>.h5`` (:mod:`voxelmocap.io.results`), replaced atomically after
-  every frame together with the filter's checkpoint, so an interrupted run can be resumed and
-  continues exactly as an uninterrupted run with the same seed would;
+* ``RUN/<Subject>/<Action>_<Trial>.h5`` (:mod:`voxelmocap.io.results`), one frame appended and
+  committed at a time together with the filter's checkpoint, so an interrupted run (even by
+  ``kill -9``) can be resumed and continues exactly as an uninterrupted run with the same seed
+  would; the file is locked while a run writes it;
 * ``RUN/<Subject>/<Action>_<Trial>.xml``: the estimates as body_pose XML (``HUMANEVA.md`` §6);
 * ``RUN/<Subject>/<Action>_<Trial>.bvh``: the tracked skeleton as BVH.
 
@@ -229,108 +230,155 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         (``Sequence.frame_rate``: the video metadata, else HumanEva-I's 60 Hz).
     """
     from .io.humaneva import Dataset
-    from .io.results import read_result
+    from .io.results import ResultWriter
 
     config = config or TrackConfig()
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
     gt = seq.ground_truth()
-    available = seq.frame_numbers
-    if gt is not None:
-        with_gt = np.intersect1d(available, gt.frames)
-        default = with_gt if len(with_gt) else available
-    else:
-        default = available
-    if frames is None:
-        selected = default
-    else:
-        selected = parse_frame_range(frames, available)
-    if len(selected) == 0:
-        raise InputError(f"{seq.subject}/{seq.name}", "no frames to track")
+    selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
-    config_text = config_to_toml(config)
     model, model_source = body_model_for(seq, gt)
     fps = seq.frame_rate if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise InputError("fps", f"the frame rate must be a finite number > 0, got {fps!r}")
-
     meta = {
-        "config": config_text, "seed": int(seed), "dataset": str(Path(dataset_root).resolve()),
+        "config": config_to_toml(config), "seed": int(seed),
+        "dataset": str(Path(dataset_root).resolve()),
         "subject": seq.subject, "action": seq.action, "trial": seq.trial,
         "cameras": ",".join(seq.camera_names), "body_model": model_source,
         "frames_requested": ",".join(str(int(f)) for f in selected), "frame_rate": fps,
     }
     tracker = BodyTracker(model, config, seed=seed)
-    done = _Rows()
-    resumed_from = 0
-    init_method = None
-    if result_path.exists():
-        if not resume and not overwrite:
-            raise InputError(result_path, "result exists; use --resume to continue it or "
-                                          "--overwrite to replace it")
-        if resume:
-            previous = read_result(result_path)
-            for key in ("config", "seed", "subject", "action", "trial", "cameras",
-                        "frames_requested"):
-                if str(previous.attrs.get(key)) != str(meta[key]):
-                    raise InputError(result_path, f"cannot resume: its {key} differs from this "
-                                                  "run's (use --overwrite to start again)")
-            if previous.checkpoint is None:
-                raise InputError(result_path, "cannot resume: the file has no checkpoint")
-            if bool(previous.attrs.get("complete")):
-                log(f"{result_path} is already complete")
-                if not (xml_path.exists() and bvh_path.exists()):  # interrupted after the h5
-                    _write_exports(xml_path, bvh_path, seq, gt, previous.frames,
-                                   previous.endpoints, fps)
-                return TrackOutcome(result_path, xml_path, bvh_path, previous.frames,
-                                    str(previous.attrs.get("init_method")), len(previous),
-                                    float(np.mean(previous.seconds)))
+    # Locks an existing result for the whole run (refused while another run writes it).
+    with ResultWriter(result_path) as writer:
+        previous = _previous_run(writer, meta, resume, overwrite)
+        if previous is not None and previous.attrs["complete"]:
+            log(f"{result_path} is already complete")
+            if not (xml_path.exists() and bvh_path.exists()):  # interrupted after the h5
+                _write_exports(xml_path, bvh_path, seq, gt, previous.frames, previous.endpoints,
+                               fps)
+            return TrackOutcome(result_path, xml_path, bvh_path, previous.frames,
+                                str(previous.attrs.get("init_method")), len(previous),
+                                float(np.mean(previous.seconds)))
+        resumed_from = 0 if previous is None else len(previous)
+        init_method = None
+        if resumed_from:
             tracker.set_state(previous.checkpoint)
-            done.extend(previous)
-            resumed_from = len(previous)
             init_method = str(previous.attrs.get("init_method"))
             log(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
                 f"({resumed_from} of {len(selected)} done)")
 
-    stage = MeasurementRunner(seq, config, log=log)
-    log(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
-        f"{','.join(seq.camera_names)}, grid {stage.grid.shape} at {stage.grid.voxel_size:g} mm, "
-        f"{config.filter.layers} layers × {config.filter.particles} particles "
-        f"({config.filter.strategy}); body: {model_source}")
-
-    if resumed_from and stage.adaptive:
-        # MOG2 learnt from frames 1..k before the interruption; replay them so that the resumed
-        # run sees the same background model as an uninterrupted one.
-        for _, images in seq.frames(selected[:resumed_from]):
-            stage.stage.masks(images)
-    todo = selected[resumed_from:]
-    bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
-    try:
-        for frame_number, images in seq.frames(todo):
-            t0 = time.perf_counter()
-            measurement = stage.measure(images)
-            if not tracker.initialised:
-                init_method = tracker.initialise(measurement, ground_truth_landmarks(gt, frame_number),
-                                                 frame=frame_number)
-                log(f"initialised from {init_method}")
-            record = tracker.step(measurement, frame=frame_number)
-            # The file's seconds are the whole frame's: measurement, initialisation and filter.
-            record = dataclasses.replace(record, seconds=time.perf_counter() - t0)
-            done.append(record)
-            attrs = dict(meta, init_method=init_method, complete=len(done) == len(selected))
-            _write_rows(result_path, done, model, attrs, tracker.get_state())
+        stage = MeasurementRunner(seq, config, log=log)
+        log(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
+            f"{','.join(seq.camera_names)}, grid {stage.grid.shape} at "
+            f"{stage.grid.voxel_size:g} mm, {config.filter.layers} layers × "
+            f"{config.filter.particles} particles ({config.filter.strategy}); body: {model_source}")
+        if resumed_from and stage.adaptive:
+            # MOG2 learnt from frames 1..k before the interruption; replay them so that the
+            # resumed run sees the same background model as an uninterrupted one.
+            for _, images in seq.frames(selected[:resumed_from]):
+                stage.stage.masks(images)
+        done = {"frames": [], "endpoints": [], "seconds": []}
+        if previous is not None:
+            for key in done:
+                done[key].extend(getattr(previous, key))
+        if not _kernels_cached():
+            log("compiling the likelihood kernels (first run only, ~20 s)…")
+        bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
+        try:
+            for frame_number, images in seq.frames(selected[resumed_from:]):
+                t0 = time.perf_counter()
+                measurement = stage.measure(images)
+                if not tracker.initialised:
+                    init_method = tracker.initialise(
+                        measurement, ground_truth_landmarks(gt, frame_number), frame=frame_number)
+                    log(f"initialised from {init_method}")
+                record = tracker.step(measurement, frame=frame_number)
+                # The file's seconds are the whole frame's: measurement, start and filter.
+                record = dataclasses.replace(record, seconds=time.perf_counter() - t0)
+                if not writer.started:
+                    writer.start(record, attrs=dict(meta, init_method=init_method),
+                                 state_names=model.state_names, part_names=model.part_names,
+                                 previous=previous, replace=resume or overwrite)
+                for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
+                                   ("seconds", record.seconds)):
+                    done[key].append(value)
+                writer.append(record, tracker.get_state(),
+                              complete=len(done["frames"]) == len(selected))
+                if bar is not None:
+                    bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
+                                    fps=f"{1.0 / max(record.seconds, 1e-9):.2f}")
+                    bar.update(1)
+        finally:
             if bar is not None:
-                bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
-                                fps=f"{1.0 / max(record.seconds, 1e-9):.2f}")
-                bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
+                bar.close()
 
-    frames_done = np.array(done.values["frames"])
-    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done.values["endpoints"]),
-                   fps)
+    frames_done = np.array(done["frames"])
+    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps)
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
-                        resumed_from, float(np.mean(done.values["seconds"])))
+                        resumed_from, float(np.mean(done["seconds"])))
+
+
+def _select_frames(seq, gt, frames: str | None) -> np.ndarray:
+    """The frames to track: ``frames`` parsed, else every frame with ground truth, else all."""
+    available = seq.frame_numbers
+    if frames is not None:
+        selected = parse_frame_range(frames, available)
+    elif gt is not None and len(np.intersect1d(available, gt.frames)):
+        selected = np.intersect1d(available, gt.frames)
+    else:
+        selected = available
+    if len(selected) == 0:
+        raise InputError(f"{seq.subject}/{seq.name}", "no frames to track")
+    return selected
+
+
+#: Attributes a resumed run must share with the file it continues.
+_RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested")
+
+
+def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
+    """The result a run continues (None for a fresh start), after checking it may.
+
+    Raises
+    ------
+    InputError
+        The result exists and neither ``resume`` nor ``overwrite`` is set, or it was made with
+        other settings, or it has frames but no checkpoint.
+    """
+    path = writer.path
+    previous = writer.read_existing() if path.exists() else None
+    if previous is None:
+        return None
+    if not resume and not overwrite:
+        raise InputError(path, "result exists; use --resume to continue it or --overwrite to "
+                               "replace it")
+    if not resume:
+        return None
+    for key in _RESUME_KEYS:
+        if str(previous.attrs.get(key)) != str(meta[key]):
+            raise InputError(path, f"cannot resume: its {key} differs from this run's "
+                                   "(use --overwrite to start again)")
+    if len(previous) and previous.checkpoint is None:
+        raise InputError(path, "cannot resume: the file has no checkpoint")
+    return previous if len(previous) else None  # killed before its first frame: start afresh
+
+
+def _kernels_cached() -> bool:
+    """Whether numba's on-disk cache holds the likelihood kernel (else the first frame compiles).
+
+    Looks at the dispatcher's cache index without importing numba here; any surprise in numba's
+    internals counts as cached (the message is a courtesy).
+    """
+    from . import _raster_kernels
+
+    try:
+        kernel = _raster_kernels.part_counts
+        if kernel.signatures:  # compiled in this process already
+            return True
+        return Path(kernel._cache._cache_file._index_path).exists()
+    except AttributeError:
+        return True
 
 
 def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
@@ -347,42 +395,6 @@ def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
                   "Partition": source.get("Partition", "Validate")}
     write_body_pose_xml(xml_path, frames, endpoints, attributes=attributes)
     write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
-
-
-_PER_FRAME = ("frames", "state", "landmarks", "endpoints", "part_scores", "ess", "betas",
-              "seconds", "log_likelihood", "map_state")
-
-
-class _Rows:
-    """The per-frame arrays of the frames done so far."""
-
-    def __init__(self):
-        self.values: dict[str, list] = {k: [] for k in _PER_FRAME}
-
-    def __len__(self) -> int:
-        return len(self.values["frames"])
-
-    def append(self, record) -> None:
-        for key in _PER_FRAME:
-            self.values[key].append(record.frame if key == "frames" else getattr(record, key))
-
-    def extend(self, result) -> None:
-        for key in _PER_FRAME:
-            self.values[key].extend(list(getattr(result, key)))
-
-
-def _write_rows(path, done: _Rows, model, attrs, checkpoint) -> None:
-    from .io.results import TrackResult, write_result
-
-    v = done.values
-    write_result(path, TrackResult(
-        frames=np.array(v["frames"], dtype=int),
-        state=np.array(v["state"]), landmarks=np.array(v["landmarks"]),
-        endpoints=np.array(v["endpoints"]), part_scores=np.array(v["part_scores"]),
-        ess=np.array(v["ess"]), betas=np.array(v["betas"]),
-        seconds=np.array(v["seconds"]), log_likelihood=np.array(v["log_likelihood"]),
-        map_state=np.array(v["map_state"]), state_names=list(model.state_names),
-        part_names=[p.name for p in model.parts], attrs=attrs, checkpoint=checkpoint))
 
 
 def _progress(total: int, initial: int, enabled: bool, desc: str):
