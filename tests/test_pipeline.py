@@ -225,3 +225,65 @@ def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
         assert resumed.attrs["complete"]
         assert sorted(p.name for p in path.parent.iterdir()) == \
             ["Walking_1.bvh", "Walking_1.h5", "Walking_1.xml"]
+
+
+def test_a_second_track_on_the_same_result_is_refused(walk_dataset, tmp_path, capsys):
+    """While one run writes RUN/S1/Walking_1.h5, another (even with --overwrite) is refused."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    run = tmp_path / "run"
+    path = run / "S1" / "Walking_1.h5"
+    # 3 × 300 particles: slow enough for the second run to start while the first writes
+    args = ["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+            "--out", str(run), "--layers", "3", "--particles", "300", "--no-progress"]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    first = subprocess.Popen([sys.executable, "-m", "voxelmocap.cli", *args], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        while not path.exists():  # its first frame is committed: it holds the lock
+            assert first.poll() is None, "the first run ended before the test could race it"
+            time.sleep(0.005)
+        capsys.readouterr()
+        assert main(args + ["--overwrite"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "another track run is writing this result" in err[0], err
+    finally:
+        first.send_signal(signal.SIGKILL)
+        first.wait()
+    assert len(read_result(path)) >= 1  # the first run's frames are intact
+
+
+def test_first_frame_compilation_is_announced(walk_dataset, tmp_path, monkeypatch):
+    import types
+
+    from voxelmocap import _raster_kernels, pipeline
+
+    messages = []
+    monkeypatch.setattr(pipeline, "_kernels_cached", lambda: False)
+    track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "run", frames="1:1",
+                   config=with_overrides(SMALL, **{"filter.layers": 1, "filter.particles": 20}),
+                   progress=False, log=messages.append)
+    compiling = [i for i, m in enumerate(messages) if m.startswith("compiling the likelihood")]
+    initialised = [i for i, m in enumerate(messages) if m.startswith("initialised from")]
+    assert len(compiling) == 1 and compiling[0] < initialised[0]  # once, before the first frame
+    monkeypatch.undo()
+    # the check itself: compiled here or cached on disk → quiet; neither → announce
+    index = tmp_path / "kernel.nbi"
+
+    def kernel(signatures):
+        cache = types.SimpleNamespace(_cache_file=types.SimpleNamespace(_index_path=str(index)))
+        return types.SimpleNamespace(signatures=signatures, _cache=cache)
+
+    monkeypatch.setattr(_raster_kernels, "part_counts", kernel([]))
+    assert not pipeline._kernels_cached()
+    index.write_bytes(b"")
+    assert pipeline._kernels_cached()
+    index.unlink()
+    monkeypatch.setattr(_raster_kernels, "part_counts", kernel(["(float64[:],)"]))
+    assert pipeline._kernels_cached()
+    monkeypatch.setattr(_raster_kernels, "part_counts", object())  # numba changed: stay quiet
+    assert pipeline._kernels_cached()

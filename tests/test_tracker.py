@@ -1,5 +1,7 @@
 """The body tracker on rasterised poses: records, initialisation, checkpoints, observers."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -156,3 +158,91 @@ def test_dynamics_built_by_name():
     assert list(elbow.twist_indices) == [names.index("l_shoulder_rot"),
                                          names.index("r_shoulder_rot")]
     assert list(elbow.elbow_indices) == [names.index("l_elbow"), names.index("r_elbow")]
+
+
+def test_every_filter_option_reaches_the_filter_from_toml():
+    import dataclasses
+
+    from voxelmocap.config import config_from_toml
+    from voxelmocap.tracker import build_filter
+
+    text = """
+    [filter]
+    layers = 3
+    particles = 50
+    survival = 0.3
+    noise_decay = 0.7
+    betas = [0.1, 0.4, 1.0]
+    alphas = [1.0, 4.0, 25.0]
+    beta_max = 50.0
+    resampling = "residual"
+    iapf_fractions = [0.7, 0.1]
+    dynamics = "elbow"
+    velocity_factor = 0.5
+    elbow_threshold_rad = 0.3
+    elbow_singular_std_rad = 0.6
+    """
+    cfg = config_from_toml(text)
+    pf = build_filter(MODEL, cfg, 0)
+    assert (pf.n_layers, pf.n_particles, pf.survival, pf.beta_max) == (3, 50, 0.3, 50.0)
+    np.testing.assert_array_equal(pf._betas, [0.1, 0.4, 1.0])
+    np.testing.assert_allclose(pf._scales, 1.0 / np.sqrt([1.0, 4.0, 25.0]))  # alphas win
+    assert pf.resampling == "residual" and pf.iapf_fractions == (0.7, 0.1)
+    dyn = pf.dynamics
+    assert (type(dyn), dyn.factor, dyn.threshold, dyn.singular_std) == (TwoStateElbow, 0.5, 0.3,
+                                                                       0.6)
+    # noise_decay reaches the filter when no alphas are given
+    pf = build_filter(MODEL, dataclasses.replace(cfg, filter=dataclasses.replace(
+        cfg.filter, alphas=None)), 0)
+    np.testing.assert_allclose(pf._scales, np.sqrt(0.7 ** np.arange(3)))
+    # every FilterConfig field is one of the above or a noise / size / strategy setting
+    used = {"layers", "particles", "survival", "noise_decay", "betas", "alphas", "beta_max",
+            "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
+            "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
+            "joint_std_rad"}
+    assert {f.name for f in dataclasses.fields(cfg.filter)} == used
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("survival = 0.0", "'filter.survival' must be in (0, 1]"),
+        ("survival = 1.2", "'filter.survival' must be in (0, 1]"),
+        ("particles = 1", "'filter.particles' must be an integer >= 2"),
+        ("betas = [0.1, 1.0]", "'filter.betas' must be 6 finite numbers"),
+        ("alphas = [1.0, 0.0, 1.0, 1.0, 1.0, 1.0]", "'filter.alphas'"),
+        ("noise_decay = 1.5", "'filter.noise_decay'"),
+        ("beta_max = -1.0", "'filter.beta_max' must be > 0"),
+        ("resampling = 'magic'", "'filter.resampling' must be one of"),
+        ("iapf_fractions = [0.8, 0.5]", "'filter.iapf_fractions' must be two fractions"),
+        ("strategy = 'iapf'", "no measurement-driven proposal"),
+        ("velocity_factor = 1.5", "factor must be in [0, 1]"),
+        ("elbow_singular_std_rad = -0.1", "must be >= 0"),
+    ],
+)
+def test_filter_options_are_checked_by_the_filters_own_rules(text, message):
+    from voxelmocap.config import config_from_toml
+
+    with pytest.raises(InputError, match=re.escape(message)):
+        config_from_toml(f"[filter]\n{text}\n", source="cfg.toml")
+
+
+def test_one_statement_of_the_ranges_and_names():
+    """The config accepts exactly what the filter accepts, and offers the registries' names."""
+    import dataclasses
+
+    from voxelmocap.config import FilterConfig, config_from_toml
+    from voxelmocap.tracking import DYNAMICS, SCHEMES, STRATEGIES, AnnealedParticleFilter
+
+    cfg = config_from_toml("[filter]\nsurvival = 1.0\n")  # the filter's (0, 1], not (0, 1)
+    AnnealedParticleFilter(10, 2, [0.0], [1.0], 0.1, survival=cfg.filter.survival)
+    choices = {f.name: set(f.metadata["choices"]) for f in dataclasses.fields(FilterConfig)
+               if "choices" in f.metadata}
+    assert choices == {"strategy": set(STRATEGIES), "dynamics": set(DYNAMICS),
+                       "resampling": set(SCHEMES)}
+    iapf = config_from_toml("[filter]\nstrategy = 'iapf'\niapf_fractions = [0.8, 0.0]\n"
+                            "layers = 2\nparticles = 20\n")
+    states = walk_states(2)  # tracks: 80 % from the dynamics, 20 % from the prior, corrected
+    tracker = BodyTracker(MODEL, iapf, seed=0)
+    tracker.track(observations(states), ground_truth=MODEL.landmarks(states[:1])[0])
+    assert tracker.filter.iapf_corrected

@@ -163,12 +163,12 @@ def build_dynamics(model, fc: FilterConfig):
     cls = DYNAMICS[fc.dynamics]
     kwargs = {}
     if issubclass(cls, VelocityModel):
-        kwargs["factor"] = 0.7
+        kwargs["factor"] = fc.velocity_factor
     if issubclass(cls, TwoStateElbow):
         names = list(model.state_names)
         kwargs.update(twist_indices=[names.index("l_shoulder_rot"), names.index("r_shoulder_rot")],
                       elbow_indices=[names.index("l_elbow"), names.index("r_elbow")],
-                      )
+                      threshold=fc.elbow_threshold_rad, singular_std=fc.elbow_singular_std_rad)
     return cls(**kwargs)
 
 
@@ -190,9 +190,8 @@ def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
     fc = config.filter
     noise = noise_profile(model, config) if noise_std is None else noise_std
     return AnnealedParticleFilter(
-        fc.particles, fc.layers, model.low, model.high, noise,
-        strategy=fc.strategy, rng=rng, survival=fc.survival, noise_decay=fc.noise_decay,
-        dynamics=build_dynamics(model, fc))
+        fc.particles, fc.layers, model.low, model.high, noise, strategy=fc.strategy, rng=rng,
+        dynamics=build_dynamics(model, fc), **fc.filter_options())
 
 
 def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36) -> np.ndarray:

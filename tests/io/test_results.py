@@ -291,3 +291,19 @@ def test_kill_9_at_any_moment_leaves_every_committed_frame(tmp_path):
                   state_names=previous.state_names, part_names=previous.part_names)
     assert [p.name for p in path.parent.iterdir()] == ["Walking_1.h5"]
     assert _check_prefix(path) == counts[-1]
+
+
+def test_two_fresh_writers_race_for_one_result(tmp_path):
+    res = make_result(n=2)
+    path = tmp_path / "r.h5"
+    first, second = ResultWriter(path), ResultWriter(path)  # neither sees a file yet
+    args = dict(attrs=res.attrs, state_names=res.state_names, part_names=res.part_names)
+    first.start(Row(res, 0), **args)
+    with pytest.raises(InputError, match="another track run is writing"):
+        second.start(Row(res, 0), **args)
+    first.append(Row(res, 0), None, complete=True)
+    first.close()
+    with pytest.raises(InputError, match="created this result meanwhile"):
+        second.start(Row(res, 0), **args)
+    second.close()
+    assert len(read_result(path)) == 1
