@@ -1,14 +1,19 @@
 """Stage runners: from a HumanEva-layout sequence on disk to tracking results on disk.
 
-:func:`track_sequence` runs the whole chain for one sequence (decode → background subtraction →
-carving → surface → annealed particle filter over the body model's likelihood) and writes
+:func:`track_sequence` runs the whole chain for one sequence: open it
+(:class:`~voxelmocap.io.humaneva.Sequence`) → measure each frame (:class:`MeasurementRunner`:
+background subtraction → carving → surface) → :meth:`BodyTracker.step
+<voxelmocap.tracker.BodyTracker.step>` (the annealed particle filter over the body model's
+likelihood) → append the :class:`~voxelmocap.tracker.FrameRecord` to the result → exports. It
+writes
 
 * ``RUN/<Subject>/<Action>_<Trial>.h5`` (:mod:`voxelmocap.io.results`), one frame appended and
   committed at a time together with the filter's checkpoint, so an interrupted run (even by
   ``kill -9``) can be resumed and continues exactly as an uninterrupted run with the same seed
   would; the file is locked while a run writes it;
 * ``RUN/<Subject>/<Action>_<Trial>.xml``: the estimates as body_pose XML (``HUMANEVA.md`` §6);
-* ``RUN/<Subject>/<Action>_<Trial>.bvh``: the tracked skeleton as BVH.
+* ``RUN/<Subject>/<Action>_<Trial>.bvh``: the tracked skeleton as BVH, at the sequence's frame
+  rate (``Sequence.frame_rate``).
 
 Only this module, :mod:`voxelmocap.io` and the command line touch files.
 """

@@ -107,6 +107,19 @@ def test_streamed_frames_and_commits(tmp_path):
     assert back.attrs["complete"]
 
 
+def test_a_frame_without_state_drops_the_older_checkpoint(tmp_path):
+    """A checkpoint must match the committed frames: an older one would resume wrongly."""
+    res = make_result(n=2)
+    path = tmp_path / "r.h5"
+    with ResultWriter(path) as out:
+        out.start(Row(res, 0), attrs=res.attrs, state_names=res.state_names,
+                  part_names=res.part_names)
+        out.append(Row(res, 0), {"frame": 0})
+        assert read_result(path).checkpoint == {"frame": 0}
+        out.append(Row(res, 1), None)
+    assert len(read_result(path)) == 2 and read_result(path).checkpoint is None
+
+
 def test_uncommitted_rows_are_not_results(tmp_path):
     path = tmp_path / "r.h5"
     write_result(path, make_result(n=4))

@@ -356,7 +356,7 @@ class ResultWriter:
             Attributes named like :data:`PER_FRAME` (``frame`` for ``frames``), e.g. a
             :class:`voxelmocap.tracker.FrameRecord`.
         checkpoint : dict or None
-            The filter state after this frame.
+            The filter state after this frame (None: the file then has no checkpoint).
         complete : bool
             Whether this is the run's last frame.
         """
@@ -368,9 +368,9 @@ class ResultWriter:
             d = f[name]
             d.resize(n + 1, axis=0)
             d[n] = getattr(record, "frame" if name == "frames" else name)
-        slot = self._slot
+        slot = -1  # without a new state, no checkpoint matches the frames any more
         if checkpoint is not None:
-            slot = 1 - max(self._slot, 0) if self._slot >= 0 else 0
+            slot = 1 if self._slot == 0 else 0  # never overwrite the committed state
             _write_blob(f[f"checkpoint_{slot}"], _pack_checkpoint(checkpoint))
         # Everything above reaches the file before the commit that makes it count.
         f.flush()
@@ -386,7 +386,6 @@ class ResultWriter:
         if self._fd is not None:
             os.close(self._fd)
             self._fd = None
-
 
 
 def _write_blob(d: h5py.Dataset, data: np.ndarray) -> None:
