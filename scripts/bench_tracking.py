@@ -17,13 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from voxelmocap.body import fit_to_landmarks
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
-from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.likelihood import log_likelihood
-from voxelmocap.pipeline import MeasurementRunner, body_model_for, build_filter, noise_std
+from voxelmocap.pipeline import MeasurementRunner, body_model_for
 from voxelmocap.synth import generate
+from voxelmocap.tracker import BodyTracker, ground_truth_landmarks
 
 
 def main() -> None:
@@ -47,28 +45,20 @@ def main() -> None:
     t0 = time.perf_counter()
     runner = MeasurementRunner(seq, config, log=None)
     setup = time.perf_counter() - t0
-    pf = build_filter(model, config, np.random.default_rng(0))
-    pf.initialise(fit_to_landmarks(model, endpoints_to_landmarks(gt.endpoints[0])),
-                  config.init.spread * noise_std(model, config))
+    tracker = BodyTracker(model, config, seed=0)
     frames = seq.frame_numbers[: args.frames]
     t_meas, t_ll, t_total = [], [], []
-    for _, images in seq.frames(frames):
+    for frame_number, images in seq.frames(frames):
         t0 = time.perf_counter()
         measurement = runner.measure(images)
         t1 = time.perf_counter()
-        spent = [0.0]
-
-        def ll(states, measurement=measurement, spent=spent):
-            s = time.perf_counter()
-            out = log_likelihood(measurement, model, states,
-                                 variances=config.likelihood.variances)
-            spent[0] += time.perf_counter() - s
-            return out
-
-        pf.step(ll)
+        if not tracker.initialised:
+            tracker.initialise(measurement, ground_truth_landmarks(gt, frame_number),
+                               frame=frame_number)
+        record = tracker.step(measurement, frame=frame_number)
         t2 = time.perf_counter()
         t_meas.append(t1 - t0)
-        t_ll.append(spent[0])
+        t_ll.append(record.likelihood_seconds)
         t_total.append(t2 - t0)
     t_meas, t_ll, t_total = (np.array(v) for v in (t_meas, t_ll, t_total))
     rest = t_total - t_meas - t_ll

@@ -2,15 +2,15 @@
 
 Renders procedural motions once (``voxelmocap.synth.generate``, cached under ``--data``), carves
 every frame once per measurement setting (occupancy cached as ``.npz`` next to the data), then runs
-the pipeline's filter loop — the same calls as :func:`voxelmocap.pipeline.track_sequence`
-(``body_model_for``, ``build_filter``, ``noise_std``, the ground-truth initialisation, ``pf.step``
-on ``log_likelihood``) — for every setting and seed, and prints one table:
+the product's tracker (:class:`voxelmocap.tracker.BodyTracker`, the class
+:func:`voxelmocap.pipeline.track_sequence` steps, with the body model of ``body_model_for`` and the
+ground-truth initialisation) for every setting and seed, and prints one table:
 
     setting → μ (mm, mean ± sd over seeds), MMTA (%, δ = 100 mm), mean error per quarter of the
     sequence (the drift), the three worst landmarks, filter seconds/frame.
 
-``--check`` first verifies that the cached loop reproduces ``track_sequence`` bit for bit on the
-first frames of the baseline. ``--diagnose`` prints, per frame, the four scores and the
+``--check`` first verifies that tracking the cached occupancies reproduces ``track_sequence`` bit
+for bit on the first frames of the baseline. ``--diagnose`` prints, per frame, the four scores and the
 log-likelihood of the *ground-truth* pose (the body model fitted to the true landmarks with
 ``fit_to_landmarks``) next to those of the baseline's estimate, and the landmark offset between the
 renderer's joints and the fitted cone model: if the truth scores worse than the estimate, the
@@ -49,7 +49,7 @@ CAMERAS = ["C1", "C2", "C3", "BW1", "BW2", "BW3", "BW4"]
 BEFORE = {"profile": "root_only", "filter.joint_std_rad": 0.15}
 
 #: name → TrackConfig overrides ("section.key": value) on top of the demo's working point and the
-#: *current* defaults; ``"profile"`` selects a candidate body of ``pipeline.noise_std``
+#: *current* defaults; ``"profile"`` selects a candidate body of ``tracker.noise_profile``
 #: (:data:`PROFILES`). ``before_*`` settings are relative to the defaults before this study.
 SETTINGS: dict[str, dict] = {
     "baseline": {},
@@ -118,7 +118,7 @@ def _root_only(model, config, base):
 
 
 def _trunk_as_root(model, config, base):
-    """Waist and neck angles on the root rotation's std (what ``pipeline.noise_std`` now does)."""
+    """Waist and neck angles on the root rotation's std (what ``tracker.noise_profile`` does)."""
     std = base(model, config).copy()
     names = list(model.state_names)
     for n in ("waist_flex", "waist_side", "waist_twist", "neck_flex", "neck_side"):
@@ -148,8 +148,8 @@ def _pitch_roll_low(model, config, base):
     return std
 
 
-#: Candidate bodies of ``pipeline.noise_std`` (setting key ``"profile"``), each given the current
-#: ``noise_std`` as ``base``.
+#: Candidate bodies of ``tracker.noise_profile`` (setting key ``"profile"``), each given the current
+#: ``noise_profile`` as ``base``; the result goes to the tracker as its ``noise_std``.
 PROFILES = {"root_only": _root_only, "trunk_as_root": _trunk_as_root,
             "limbs_by_speed": _limbs_by_speed, "pitch_roll_low": _pitch_roll_low}
 
@@ -187,7 +187,8 @@ def source_hash(*names: str) -> str:
 MEASUREMENT_SOURCES = ("silhouette.py", "carving.py", "_carving_kernels.py", "measurement.py",
                        "grid.py", "camera.py", "io/humaneva.py", "pipeline.py")
 TRACKING_SOURCES = MEASUREMENT_SOURCES + ("likelihood.py", "_raster_kernels.py", "surface.py",
-                                          "body/*.py", "tracking/*.py", "config.py")
+                                          "body/*.py", "tracking/*.py", "config.py",
+                                          "tracker.py")
 
 
 def make_config(overrides: dict) -> TrackConfig:
@@ -257,51 +258,29 @@ def truth(data: Path, motion: str):
 # ------------------------------------------------------------------------------------ tracking
 def track_cached(frames, occ, grid, gt, model, config: TrackConfig, seed: int,
                  profile: str | None = None):
-    """The filter loop of ``track_sequence`` on cached occupancies.
+    """Track cached occupancies with the product's :class:`~voxelmocap.tracker.BodyTracker`.
 
-    ``profile`` names a candidate body of ``pipeline.noise_std`` (:data:`PROFILES`), patched in
-    for this run only.
+    ``profile`` names a candidate body of ``tracker.noise_profile`` (:data:`PROFILES`), given to
+    the tracker as its ``noise_std``.
 
     Returns (states (F, 27), endpoints (F, 20, 3), filter seconds per frame).
     """
-    from voxelmocap import pipeline
-    from voxelmocap.body import fit_to_landmarks
-    from voxelmocap.likelihood import Measurement, log_likelihood
-    from voxelmocap.pipeline import _initial_state
+    from voxelmocap.likelihood import Measurement
+    from voxelmocap.tracker import BodyTracker, Collector, ground_truth_landmarks, noise_profile
 
-    original = pipeline.noise_std
-    if profile is not None:
-        pipeline.noise_std = lambda model, config: PROFILES[profile](model, config, original)
-    try:
-        return _track_loop(frames, occ, grid, gt, model, config, seed, pipeline, _initial_state,
-                           fit_to_landmarks, Measurement, log_likelihood)
-    finally:
-        pipeline.noise_std = original
-
-
-def _track_loop(frames, occ, grid, gt, model, config, seed, pipeline, _initial_state,
-                fit_to_landmarks, Measurement, log_likelihood):
-    build_filter, noise_std = pipeline.build_filter, pipeline.noise_std
-
-    variances = config.likelihood.variances
-    pf = build_filter(model, config, np.random.default_rng(seed))
-    states, endpoints, seconds = [], [], []
+    noise = None if profile is None else PROFILES[profile](model, config, noise_profile)
+    kept = Collector("state", "endpoints", "seconds")
+    tracker = BodyTracker(model, config, seed=seed, noise_std=noise, observers=[kept])
     for frame_number, o in zip(frames, occ, strict=True):
         measurement = Measurement(o, grid, sigma=config.measurement.surface_sigma)
-        t0 = time.perf_counter()
-        if pf.particles is None:
-            _, mean = _initial_state(config, gt, frame_number, model, measurement, variances,
-                                     fit_to_landmarks)
-            pf.initialise(mean, config.init.spread * noise_std(model, config))
-
-        def ll(s, measurement=measurement):
-            return log_likelihood(measurement, model, s, variances=variances)
-
-        est = model.clip(pf.step(ll)[None])
-        seconds.append(time.perf_counter() - t0)
-        states.append(est[0])
-        endpoints.append(model.endpoints(est)[0])
-    return np.array(states), np.array(endpoints), float(np.mean(seconds[1:] or seconds))
+        if not tracker.initialised:
+            tracker.initialise(measurement, ground_truth_landmarks(gt, frame_number),
+                               frame=frame_number)
+        tracker.step(measurement, frame=frame_number)
+    out = kept.stacked()
+    seconds = out["seconds"]
+    return out["state"], out["endpoints"], float(np.mean(seconds[1:] if len(seconds) > 1
+                                                         else seconds))
 
 
 def evaluate(frames, endpoints, gt):
@@ -421,7 +400,7 @@ def diagnose(args, motion, overrides, seed):
 
 
 def check(args, motion):
-    """The cached loop reproduces track_sequence (same estimates) on the first frames."""
+    """Tracking the cached occupancies reproduces track_sequence (same estimates)."""
     import tempfile
 
     from voxelmocap.io.results import read_result
@@ -439,9 +418,9 @@ def check(args, motion):
                              log=lambda msg: None)
         ref = read_result(out.result_path).state
     diff = float(np.abs(ref - states).max())
-    print(f"check: cached loop vs track_sequence, {n} frames: max |Δstate| = {diff:.3g}")
+    print(f"check: cached occupancies vs track_sequence, {n} frames: max |Δstate| = {diff:.3g}")
     if diff > 1e-9:
-        raise SystemExit("the cached loop does not reproduce track_sequence")
+        raise SystemExit("tracking the cached occupancies does not reproduce track_sequence")
 
 
 def main(argv=None) -> int:
@@ -460,7 +439,7 @@ def main(argv=None) -> int:
     p.add_argument("--diagnose", action="store_true", help="ground truth vs estimate scores")
     p.add_argument("--every", type=int, default=6, help="--diagnose: print every N-th frame")
     p.add_argument("--check", action="store_true",
-                   help="verify the cached loop against track_sequence first")
+                   help="verify the cached tracking against track_sequence first")
     p.add_argument("--list", action="store_true", help="list the named settings")
     args = p.parse_args(argv)
     if args.list:

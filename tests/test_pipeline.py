@@ -47,27 +47,27 @@ def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
 
 @pytest.mark.parametrize("method", ["gaussian", "mog2"])
 def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch, method):
-    import voxelmocap.io.results as results
+    from voxelmocap.io.results import ResultWriter
 
     config = with_overrides(SMALL, **{"measurement.silhouette": {"method": method}})
     if method == "mog2":  # the adaptive model must be replayed on resume
         config = with_overrides(config, **{"filter.layers": 1, "filter.particles": 40})
     full = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "full", config=config,
                           frames="1:5", seed=7, progress=False, log=lambda *_: None)
-    real_write = results.write_result
+    real_append = ResultWriter.append
     calls = {"n": 0}
 
-    def interrupted(path, result):
+    def interrupted(self, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 3:
             raise KeyboardInterrupt
-        real_write(path, result)
+        real_append(self, *args, **kwargs)
 
-    monkeypatch.setattr(results, "write_result", interrupted)
+    monkeypatch.setattr(ResultWriter, "append", interrupted)
     with pytest.raises(KeyboardInterrupt):
         track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
                        frames="1:5", seed=7, progress=False, log=lambda *_: None)
-    monkeypatch.setattr(results, "write_result", real_write)
+    monkeypatch.setattr(ResultWriter, "append", real_append)
     partial = read_result(tmp_path / "part" / "S1" / "Walking_1.h5")
     assert len(partial) == 2 and not partial.attrs["complete"]
     with pytest.raises(InputError, match="use --resume"):
@@ -146,3 +146,144 @@ def test_without_background_videos_falls_back_to_mog2(walk_dataset, tmp_path):
                              progress=False, log=messages.append)
     assert any("using MOG2" in m for m in messages)
     assert len(read_result(outcome.result_path)) == 2
+
+
+def test_frame_rate_comes_from_the_data(tmp_path):
+    """A 30 fps sequence: the BVH plays at 30 fps and the result file says 30 (not 60)."""
+    from voxelmocap.io.bvh import read_bvh
+    from voxelmocap.synth import generate
+
+    data = generate(tmp_path / "data", motion="walk", frames=2, cameras=["C1", "C2", "BW1"],
+                    fps=30.0, progress=False, background_frames=10, seed=1)
+    outcome = track_sequence(data, "S1", "Walking_1", tmp_path / "run",
+                             config=with_overrides(SMALL, **{"filter.layers": 1,
+                                                             "filter.particles": 20}),
+                             progress=False, log=lambda *_: None)
+    assert "Frame Time: 0.03333333" in outcome.bvh_path.read_text()
+    assert read_bvh(outcome.bvh_path).fps == pytest.approx(30.0)
+    assert read_result(outcome.result_path).attrs["frame_rate"] == 30.0
+    # an explicit rate wins; an impossible one is refused before anything is written
+    again = track_sequence(data, "S1", "Walking_1", tmp_path / "run25", frames="1:1", fps=25.0,
+                           config=with_overrides(SMALL, **{"filter.layers": 1,
+                                                           "filter.particles": 20}),
+                           progress=False, log=lambda *_: None)
+    assert read_bvh(again.bvh_path).fps == pytest.approx(25.0)
+    with pytest.raises(InputError, match="frame rate"):
+        track_sequence(data, "S1", "Walking_1", tmp_path / "run0", fps=0.0, progress=False,
+                       log=lambda *_: None)
+    assert not (tmp_path / "run0").exists()
+
+
+def test_frame_rate_of_image_folders_is_humaneva_i(tmp_path):
+    from humaneva_fixture import make_tiny_dataset
+
+    from voxelmocap.io.humaneva import Dataset
+
+    root = make_tiny_dataset(tmp_path / "data", image_folder_camera="C1")
+    assert Dataset(root).sequence("S1", "Walking_1", cameras=["C1"]).frame_rate == 60.0
+    assert Dataset(root).sequence("S1", "Walking_1").frame_rate == 60.0  # the AVIs' metadata
+
+
+def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
+    """`track` killed (SIGKILL) at seeded random moments: the file always reads and holds a
+    prefix of the uninterrupted run's frames; --resume then finishes bit-identically, leaving
+    only the three outputs in the folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    args = ["--frames", "1:6", "--layers", "2", "--particles", "30", "--seed", "4",
+            "--no-progress"]
+    assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                 "--out", str(tmp_path / "full"), *args]) == 0
+    full = read_result(tmp_path / "full" / "S1" / "Walking_1.h5")
+    rng = np.random.default_rng(15)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    for k in range(3):
+        run = tmp_path / f"killed{k}"
+        path = run / "S1" / "Walking_1.h5"
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "voxelmocap.cli", "track", str(walk_dataset), "--subject", "S1",
+             "--sequence", "Walking_1", "--out", str(run), *args], env=env,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wait_for = int(rng.integers(0, 6))  # committed frames to wait for, then a bit more
+        while proc.poll() is None and (len(read_result(path)) if path.exists() else 0) < wait_for:
+            time.sleep(0.005)
+        time.sleep(rng.uniform(0.0, 0.3))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        if path.exists():  # (not when killed before its first frame)
+            partial = read_result(path)
+            np.testing.assert_array_equal(partial.state, full.state[:len(partial)])
+        assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                     "--out", str(run), "--resume", *args]) == 0
+        resumed = read_result(path)
+        for name in ("frames", "state", "map_state", "landmarks", "log_likelihood", "ess"):
+            np.testing.assert_array_equal(getattr(resumed, name), getattr(full, name))
+        assert resumed.attrs["complete"]
+        assert sorted(p.name for p in path.parent.iterdir()) == \
+            ["Walking_1.bvh", "Walking_1.h5", "Walking_1.xml"]
+
+
+def test_a_second_track_on_the_same_result_is_refused(walk_dataset, tmp_path, capsys):
+    """While one run writes RUN/S1/Walking_1.h5, another (even with --overwrite) is refused."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    run = tmp_path / "run"
+    path = run / "S1" / "Walking_1.h5"
+    # 3 × 300 particles: slow enough for the second run to start while the first writes
+    args = ["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+            "--out", str(run), "--layers", "3", "--particles", "300", "--no-progress"]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    first = subprocess.Popen([sys.executable, "-m", "voxelmocap.cli", *args], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        while not path.exists():  # its first frame is committed: it holds the lock
+            assert first.poll() is None, "the first run ended before the test could race it"
+            time.sleep(0.005)
+        capsys.readouterr()
+        assert main(args + ["--overwrite"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "another track run is writing this result" in err[0], err
+    finally:
+        first.send_signal(signal.SIGKILL)
+        first.wait()
+    assert len(read_result(path)) >= 1  # the first run's frames are intact
+
+
+def test_first_frame_compilation_is_announced(walk_dataset, tmp_path, monkeypatch):
+    import types
+
+    from voxelmocap import _raster_kernels, pipeline
+
+    messages = []
+    monkeypatch.setattr(pipeline, "_kernels_cached", lambda: False)
+    track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "run", frames="1:1",
+                   config=with_overrides(SMALL, **{"filter.layers": 1, "filter.particles": 20}),
+                   progress=False, log=messages.append)
+    compiling = [i for i, m in enumerate(messages) if m.startswith("compiling the likelihood")]
+    initialised = [i for i, m in enumerate(messages) if m.startswith("initialised from")]
+    assert len(compiling) == 1 and compiling[0] < initialised[0]  # once, before the first frame
+    monkeypatch.undo()
+    # the check itself: compiled here or cached on disk → quiet; neither → announce
+    index = tmp_path / "kernel.nbi"
+
+    def kernel(signatures):
+        cache = types.SimpleNamespace(_cache_file=types.SimpleNamespace(_index_path=str(index)))
+        return types.SimpleNamespace(signatures=signatures, _cache=cache)
+
+    monkeypatch.setattr(_raster_kernels, "part_counts", kernel([]))
+    assert not pipeline._kernels_cached()
+    index.write_bytes(b"")
+    assert pipeline._kernels_cached()
+    index.unlink()
+    monkeypatch.setattr(_raster_kernels, "part_counts", kernel(["(float64[:],)"]))
+    assert pipeline._kernels_cached()
+    monkeypatch.setattr(_raster_kernels, "part_counts", object())  # numba changed: stay quiet
+    assert pipeline._kernels_cached()

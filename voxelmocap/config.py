@@ -139,20 +139,44 @@ class LikelihoodConfig:
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """Annealed particle filter."""
+    """Annealed particle filter and its dynamics (``voxelmocap.tracking``).
+
+    Every option of ``AnnealedParticleFilter`` and of the dynamics models can be set here; their
+    legal ranges are stated once, by ``voxelmocap.tracking.apf.check_options`` and the dynamics'
+    constructors, and checked when a config is built.
+    """
 
     layers: int = 6
     particles: int = 600
+    #: ``iapf`` needs a measurement-driven proposal, which the body tracker does not have yet:
+    #: use it with ``iapf_fractions = [f, 0]`` (the rest of layer 1 then comes from the prior)
     strategy: str = _choice("apf", "sir", "iapf", default="apf")
-    #: target share of surviving particles per layer (β by bisection). Measured: 0.3 helps a walk
-    #: (μ 59 → 46 mm, 5 seeds) and a jog (60 → 57 mm) but hurts a box sequence (56 → 63 mm);
-    #: 0.7 is worse (walk 89 mm with the earlier noise); see docs/benchmarks.md
+    #: target share of surviving particles per layer (β by bisection), in (0, 1]. Measured: 0.3
+    #: helps a walk (μ 59 → 46 mm, 5 seeds) and a jog (60 → 57 mm) but hurts a box sequence
+    #: (56 → 63 mm); 0.7 is worse (walk 89 mm with the earlier noise); see docs/benchmarks.md
     survival: float = 0.5
-    noise_decay: float = 0.5  #: propagation spread multiplier per layer
+    noise_decay: float = 0.5  #: propagation covariance multiplier per layer, in (0, 1]
+    #: fixed likelihood exponents, one per layer (e.g. Fontmarty's [0.1, 0.4, 1]) instead of the
+    #: adaptive β
+    betas: tuple[float, ...] | None = None
+    #: Fontmarty's dynamics exponents, one per layer (noise std / √α); overrides ``noise_decay``
+    alphas: tuple[float, ...] | None = None
+    beta_max: float | None = None  #: upper limit of the adaptive β (None: unbounded)
+    resampling: str = _choice("systematic", "stratified", "multinomial", "residual",
+                              default="systematic")
+    #: IAPF: shares of layer 1 drawn from the dynamics and from the proposal (rest: the prior)
+    iapf_fractions: tuple[float, float] = (0.8, 0.2)
     dynamics: str = _choice("random_walk", "velocity", "elbow", default="random_walk")
+    #: ``velocity`` and ``elbow``: the diagonal of A in ``s_k = s_{k-1} + A (s̄_{k-1} − s̄_{k-2})``
+    #: (paper 000 eq. 15), in [0, 1]
+    velocity_factor: float = 0.7
+    #: ``elbow``: an elbow closer to straight than this counts as singular (paper 000 §4.4, φ)
+    elbow_threshold_rad: float = 0.2
+    #: ``elbow``: the shoulder-twist noise while the elbow is singular (β̂)
+    elbow_singular_std_rad: float = 0.4
     #: per-frame propagation noise (standard deviations) of the state groups at 60 Hz: half the
     #: largest expected change in one frame (paper 002 §2.3). ``rotation_std_rad`` applies to the
-    #: root *and* the waist and neck (``pipeline.noise_std``), ``joint_std_rad`` to the limbs.
+    #: root *and* the waist and neck (``tracker.noise_profile``), ``joint_std_rad`` to the limbs.
     translation_std_mm: float = 25.0
     #: measured: 0.03 helps a walk (μ 59 → 47 mm, 5 seeds) and a jog (60 → 52 mm) but hurts a
     #: box sequence, whose trunk turns fast (56 → 63 mm, 3 seeds); 0.1 is worse (walk 73 mm)
@@ -163,6 +187,13 @@ class FilterConfig:
     #: follow the knees (walk 76 mm, 3 seeds: the legs are lost mid-stride); 0.12 gave 70 mm on the
     #: jog. 0.1 rad = 5.7° per frame at 60 Hz.
     joint_std_rad: float = 0.1
+
+    def filter_options(self) -> dict:
+        """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
+        return {"survival": self.survival, "noise_decay": self.noise_decay,
+                "betas": self.betas, "alphas": self.alphas,
+                "beta_max": np.inf if self.beta_max is None else self.beta_max,
+                "resampling": self.resampling, "iapf_fractions": self.iapf_fractions}
 
 
 @dataclass(frozen=True)
@@ -292,10 +323,7 @@ def _check_ranges(obj, prefix: str, source) -> None:
         if hasattr(obj, name) and not getattr(obj, name) > 0:
             raise InputError(source, f"key {prefix + '.' if prefix else ''}{name!r} must be > 0")
     if isinstance(obj, FilterConfig):
-        if not 0 < obj.survival < 1:
-            raise InputError(source, "key 'filter.survival' must be between 0 and 1")
-        if not 0 < obj.noise_decay <= 1:
-            raise InputError(source, "key 'filter.noise_decay' must be in (0, 1]")
+        _check_filter(obj, prefix, source)
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
     if isinstance(obj, SilhouetteConfig):
@@ -348,6 +376,33 @@ def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
             bad(name, ">= 0")
     if obj.mog2_history < 1:
         bad("mog2_history", ">= 1")
+
+
+#: ``AnnealedParticleFilter`` argument → FilterConfig key, for messages.
+_FILTER_KEYS = {"n_particles": "particles", "n_layers": "layers"}
+
+
+def _check_filter(obj: FilterConfig, prefix: str, source) -> None:
+    """The filter's and the dynamics' own range checks, reported with the config key."""
+    from .tracking import TwoStateElbow, check_options
+
+    try:
+        check_options(n_particles=obj.particles, n_layers=obj.layers, strategy=obj.strategy,
+                      **obj.filter_options())
+    except InputError as exc:
+        key = _FILTER_KEYS.get(exc.source, exc.source)
+        raise InputError(source, f"key '{prefix}.{key}' {exc.problem}") from None
+    try:
+        TwoStateElbow([0], [1], threshold=obj.elbow_threshold_rad,
+                      singular_std=obj.elbow_singular_std_rad, factor=obj.velocity_factor)
+    except ValueError as exc:
+        raise InputError(source, f"filter dynamics: {exc} (keys '{prefix}.velocity_factor', "
+                                 f"'{prefix}.elbow_threshold_rad', "
+                                 f"'{prefix}.elbow_singular_std_rad')") from None
+    if obj.strategy == "iapf" and obj.iapf_fractions[1] > 0:
+        raise InputError(source, f"key '{prefix}.iapf_fractions': the tracker has no "
+                                 "measurement-driven proposal for the iapf strategy yet; set the "
+                                 "proposal share to 0, e.g. [0.8, 0.0]")
 
 
 def config_from_dict(data: dict, source="config") -> TrackConfig:

@@ -52,7 +52,29 @@ def test_two_state_elbow_two_arms():
         TwoStateElbow([0, 2], [1])
 
 
-def test_registry():
-    assert DYNAMICS["random_walk"] is RandomWalk
-    assert DYNAMICS["velocity"] is VelocityModel
-    assert DYNAMICS["elbow"] is TwoStateElbow
+def test_registry_names_build_the_named_behaviour():
+    """Each name gives a model that moves particles the way the name says (hand-worked)."""
+    x = np.array([[0.0, 0.0, 0.3, 0.1],    # elbow (dim 3) nearly straight
+                  [1.0, 1.0, 0.3, 0.9]])   # bent
+    hist = np.array([[0.0, 0.0, 0.0, 0.0], [2.0, -4.0, 0.0, 0.0]])  # last step (2, -4, 0, 0)
+    base = np.full(4, 0.05)
+    assert set(DYNAMICS) == {"random_walk", "velocity", "elbow"}
+    walk = DYNAMICS["random_walk"]()
+    np.testing.assert_array_equal(walk.drift(x, hist), x)  # ignores the history
+    np.testing.assert_array_equal(walk.noise_std(x, base), np.tile(base, (2, 1)))
+    velocity = DYNAMICS["velocity"](0.5)
+    np.testing.assert_allclose(velocity.drift(x, hist), x + [1.0, -2.0, 0.0, 0.0])
+    np.testing.assert_array_equal(velocity.noise_std(x, base), np.tile(base, (2, 1)))
+    elbow = DYNAMICS["elbow"]([2], [3], factor=0.5)
+    np.testing.assert_allclose(elbow.drift(x, hist), x + [1.0, -2.0, 0.0, 0.0])
+    np.testing.assert_allclose(elbow.noise_std(x, base),
+                               [[0.05, 0.05, 0.4, 0.05], [0.05, 0.05, 0.05, 0.05]])
+
+
+def test_velocity_factor_range():
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="factor must be in"):
+            VelocityModel(bad)
+        with pytest.raises(ValueError, match="factor must be in"):
+            TwoStateElbow([0], [1], factor=bad)
+    assert VelocityModel(0.0).factor == 0.0 and VelocityModel(1.0).factor == 1.0

@@ -11,9 +11,10 @@ def add_parser(subparsers) -> None:
         help="track one sequence: silhouettes → voxels → annealed particle filter → poses",
         description="Track one HumanEva-layout sequence. Writes RUN/<Subject>/<Action>_<Trial>.h5 "
                     "(states, landmarks, endpoints, per-part scores, ESS, timing, config), the "
-                    "body_pose XML of the estimates and a BVH of the tracked skeleton. The result "
-                    "file is replaced atomically after every frame, so --resume continues an "
-                    "interrupted run exactly.",
+                    "body_pose XML of the estimates and a BVH of the tracked skeleton (at the "
+                    "video's frame rate). Every frame is committed to the result file with the "
+                    "filter's state as it is tracked, so --resume continues an interrupted run "
+                    "exactly; a result being written by another run is refused.",
     )
     parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
     parser.add_argument("--subject", required=True, help="e.g. S1")

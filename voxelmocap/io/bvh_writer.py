@@ -65,7 +65,8 @@ def write_landmarks_bvh(path, landmarks, fps: float, *, units: str = "cm",
     landmarks : (F, 15, 3) array_like
         Landmarks in :data:`~voxelmocap.joints.LANDMARK_NAMES` order, finite.
     fps : float
-        Frame rate (the BVH ``Frame Time`` is ``1 / fps``).
+        Frame rate in Hz, finite and > 0 (the BVH ``Frame Time`` is ``1 / fps``); take it from
+        the data (``Sequence.frame_rate``), never assume one.
     units : {"cm", "mm"}
         Length unit written.
     end_length_mm : float
@@ -74,6 +75,8 @@ def write_landmarks_bvh(path, landmarks, fps: float, *, units: str = "cm",
     lm = np.asarray(landmarks, dtype=float)
     if lm.ndim != 3 or lm.shape[1:] != (15, 3) or not np.all(np.isfinite(lm)):
         raise ValueError(f"landmarks must be finite (F, 15, 3), got shape {lm.shape}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a finite frame rate > 0, got {fps!r}")
     scale = {"cm": 0.1, "mm": 1.0}[units]
     pts = lm @ _TO_BVH.T * scale  # (F, 15, 3) in BVH axes and units
     parents = LANDMARK_PARENTS

@@ -55,6 +55,8 @@ _SEQ_FILE = re.compile(r"^(?P<action>[A-Za-z]+)_(?P<trial>\d+)_\((?P<cam>[A-Za-z
 _BACKGROUND = re.compile(r"^Background_(?P<k>[^_]+)_\((?P<cam>[A-Za-z0-9]+)\)\.avi$", re.I)
 _IMAGE_SUFFIXES = {".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg"}
 _GRAY_PREFIX = "BW"
+#: HumanEva-I's cameras all record at 60 Hz; used when no video states its rate.
+HUMANEVA_I_FRAME_RATE = 60.0
 
 
 # ---------------------------------------------------------------------- .ofs and synchronisation
@@ -161,6 +163,7 @@ class _VideoStream:
             self._first = min(numbered)
             self._files = numbered
             self.n_frames = max(numbered) - self._first + 1
+            self.fps = None  # numbered images carry no frame rate
         else:
             self._files = None
             cap = cv2.VideoCapture(str(path))
@@ -168,6 +171,9 @@ class _VideoStream:
                 if not cap.isOpened():
                     raise InputError(path, "cannot open video (missing file or unsupported codec)")
                 self.n_frames = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+                fps = float(cap.get(cv2.CAP_PROP_FPS))
+                #: the container's frame rate (Hz), None when it states none
+                self.fps = fps if math.isfinite(fps) and fps > 0 else None
             finally:
                 cap.release()
             if self.n_frames <= 0:
@@ -433,6 +439,14 @@ class Sequence:
         """
         counts = self.video_frame_counts()
         return max(0, min(counts[c] - self.starts[c] + 1 for c in self.camera_names))
+
+    @cached_property
+    def frame_rate(self) -> float:
+        """Frames per second: the first used camera's video metadata, else 60 Hz (HumanEva-I)."""
+        for cam in self.camera_names:
+            if self._streams[cam].fps is not None:
+                return self._streams[cam].fps
+        return HUMANEVA_I_FRAME_RATE
 
     @property
     def frame_numbers(self) -> np.ndarray:

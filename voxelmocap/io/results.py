@@ -1,23 +1,53 @@
-"""Tracking results in HDF5: one file per sequence, rewritten atomically after every frame.
+"""Tracking results in HDF5: one self-describing file per sequence, streamed one frame at a time.
 
 ``RUN/<Subject>/<Action>_<Trial>.h5`` holds
 
-* datasets ``frames`` (F,) synchronised 1-based frame numbers, ``state`` (F, 27), ``state_names``,
-  ``landmarks`` (F, 15, 3) mm, ``endpoints`` (F, 20, 3) mm, ``part_scores`` (F, n_parts, 4) of the
-  estimate (Out, DO, Empty, Surf), ``part_names``, ``ess`` and ``betas`` (F, L) per annealing layer,
-  ``seconds`` (F,) per frame, ``log_likelihood`` (F,) of the estimate, ``map_state`` (F, 27);
-* attributes ``config`` (the TOML used), ``seed``, ``subject``, ``action``, ``trial``, ``dataset``,
-  ``cameras``, ``init_method``, ``frames_requested`` and ``complete`` (False while running);
-* group ``checkpoint``: the filter's full state after the last completed frame, so that ``--resume``
-  continues bit-identically.
+* per-frame datasets, frames along axis 0, each with ``units`` and ``description`` attributes:
+  ``frames`` (F,) synchronised 1-based frame numbers, ``state`` (F, 27) and ``map_state`` (F, 27)
+  (mm, rad; names in ``state_names``), ``landmarks`` (F, 15, 3) mm, ``endpoints`` (F, 20, 3) mm,
+  ``part_scores`` (F, n_parts, 4) of the estimate (Out, DO, Empty, Surf), ``ess`` and ``betas``
+  (F, L) per annealing layer, ``seconds`` (F,) per frame, ``log_likelihood`` (F,);
+* ``state_names`` and ``part_names``: UTF-8 string datasets;
+* file attributes: ``format`` / ``format_version``, ``voxelmocap_version``, ``created`` (UTC, ISO
+  8601), ``length_unit`` ``"mm"``, ``angle_unit`` ``"rad"``, ``coordinate_frame`` (Z up, floor at
+  Z = 0), ``frame_rate`` (Hz), ``landmark_names``, ``endpoint_names``, ``state_names``,
+  ``part_names``, ``score_names``, and what the writer was given (``config`` TOML, ``seed``,
+  ``dataset`` = the data source, ``subject``, ``action``, ``trial``, ``cameras``, ``body_model``,
+  ``init_method``, ``frames_requested``); strings are UTF-8 (variable length);
+* ``commit`` (3,) int64: the number of committed frames, the checkpoint slot holding their filter
+  state (−1 for none) and 1 once the run is complete. **Rows beyond the committed count are not
+  results** (a killed run may leave one half-written row); :func:`read_result` drops them.
+* ``checkpoint_0``, ``checkpoint_1``: uint8, an uncompressed NumPy ``.npz`` archive of the filter
+  state after the committed frames (``np.load(io.BytesIO(bytes))``), so ``--resume`` continues
+  bit-identically. The two slots alternate: a frame's state goes into the slot not committed.
 
-Because the file is replaced atomically (temporary file + rename) after each frame, an interrupted
-run leaves the last completed frame on disk and never a half-written file.
+Writing (:class:`ResultWriter`). The file is created under a temporary name
+(``.<name>.partial`` beside it), switched to HDF5's single-writer/multiple-reader (SWMR) mode and
+renamed into place, then each frame is appended: the per-frame rows and the checkpoint slot are
+written and flushed, and only then the ``commit`` record, flushed again. SWMR mode orders HDF5's
+metadata writes so that the file on disk is consistent at every instant; with the commit written
+last, a run killed at any moment leaves a readable file holding every completed frame and the
+checkpoint of the last one. The cost of a frame does not grow with the sequence (chunked, resizable
+datasets; ``scripts/bench_results.py``). The writer holds an exclusive ``flock`` on the file for
+the whole run (released by the kernel when the process dies), so a second run on the same result
+is refused; a short ``flock`` on the folder serialises creation and renaming. The temporary file
+exists only while a file is being created; one left by a killed creation is removed by the next
+writer in that folder.
+
+Reading. A file being written, or left by a killed run, still carries HDF5's "open for writing"
+mark: :func:`read_result` opens it in SWMR-read mode; other tools need ``h5py.File(path, "r",
+swmr=True, locking=False)`` (or ``h5clear -s``). ``--resume`` copies the committed frames into a
+fresh file, which clears the mark.
 """
 
 from __future__ import annotations
 
+import contextlib
+import datetime
+import fcntl
+import io
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,17 +55,44 @@ import h5py
 import numpy as np
 
 from ..errors import InputError
-from ._atomic import atomic_path
 
-__all__ = ["TrackResult", "read_result", "write_result"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "PER_FRAME", "ResultWriter", "TrackResult", "read_result",
+           "write_result"]
 
-_PER_FRAME = ("frames", "state", "landmarks", "endpoints", "part_scores", "ess", "betas",
-              "seconds", "log_likelihood", "map_state")
+FORMAT = "voxelmocap tracking result"
+FORMAT_VERSION = 2
+
+#: Per-frame datasets: name → (units, description).
+PER_FRAME: dict[str, tuple[str, str]] = {
+    "frames": ("1", "synchronised 1-based frame number"),
+    "state": ("mm (translation), rad (angles)", "the estimate: weighted mean of the last "
+              "annealing layer, clipped to the legal ranges; names in state_names"),
+    "landmarks": ("mm", "the 15 landmarks of the estimate, names in landmark_names"),
+    "endpoints": ("mm", "the 20 body_pose endpoints of the estimate, names in endpoint_names"),
+    "part_scores": ("1", "Out, DO, Empty, Surf of each body part of the estimate (part_names, "
+                    "score_names)"),
+    "ess": ("particles", "effective sample size of each annealing layer"),
+    "betas": ("1", "likelihood exponent of each annealing layer"),
+    "seconds": ("s", "wall time of the frame: measurement, initialisation and filter"),
+    "log_likelihood": ("1", "log-likelihood of the estimate (paper 002 eqs 7-9)"),
+    "map_state": ("mm (translation), rad (angles)", "the particle of largest last-layer weight"),
+}
+_INT_ROWS = {"frames"}
+_CHUNK_ROWS = 64  # rows per chunk: a few kB per dataset, rewritten at most once per frame
+_STR = h5py.string_dtype("utf-8")
+_LOCKING = False  # this module's own flock guards the file; HDF5's would block its readers
+_SCORE_NAMES = ("out", "do", "empty", "surf")
+_COORDINATE_FRAME = ("world frame of the cameras' calibration: right-handed, Z up, floor at Z = 0,"
+                     " lengths in mm")
 
 
 @dataclass
 class TrackResult:
-    """In-memory form of a result file (per-frame arrays stacked along axis 0)."""
+    """In-memory form of a result file (per-frame arrays stacked along axis 0).
+
+    ``attrs`` holds the file's attributes and ``complete`` (whether the run finished);
+    ``checkpoint`` the filter state after the last frame (None when the file has none).
+    """
 
     frames: np.ndarray
     state: np.ndarray
@@ -56,16 +113,17 @@ class TrackResult:
         return len(self.frames)
 
 
-def _write_checkpoint(group: h5py.Group, state: dict) -> None:
-    scalars = {}
-    for key, value in state.items():
-        if isinstance(value, np.ndarray):
-            group.create_dataset(key, data=value)
-        elif value is None:
-            scalars[key] = None
-        else:
-            scalars[key] = value
-    group.attrs["scalars"] = json.dumps(scalars, default=_json_default)
+# ---------------------------------------------------------------------- checkpoints as bytes
+def _pack_checkpoint(state: dict) -> np.ndarray:
+    """A filter state (arrays, numbers, strings, dicts, None) as the bytes of an ``.npz``."""
+    arrays = {k: v for k, v in state.items() if isinstance(v, np.ndarray)}
+    scalars = {k: v for k, v in state.items() if not isinstance(v, np.ndarray)}
+    if any(a.dtype.hasobject for a in arrays.values()):
+        raise TypeError("cannot store object arrays in a checkpoint")
+    text = json.dumps(scalars, default=_json_default).encode()
+    buffer = io.BytesIO()
+    np.savez(buffer, __scalars__=np.frombuffer(text, dtype=np.uint8), **arrays)
+    return np.frombuffer(buffer.getvalue(), dtype=np.uint8)
 
 
 def _json_default(value):
@@ -73,33 +131,292 @@ def _json_default(value):
         return int(value)
     if isinstance(value, np.floating):
         return float(value)
-    if isinstance(value, np.ndarray):
-        return value.tolist()
     raise TypeError(f"cannot store {type(value).__name__} in a checkpoint")
 
 
-def _read_checkpoint(group: h5py.Group) -> dict:
-    state = json.loads(group.attrs["scalars"])
-    for key in group:
-        state[key] = group[key][()]
+def _unpack_checkpoint(data: np.ndarray) -> dict:
+    with np.load(io.BytesIO(np.asarray(data, dtype=np.uint8).tobytes()),
+                 allow_pickle=False) as z:
+        state = json.loads(bytes(z["__scalars__"]).decode())
+        for key in z.files:
+            if key != "__scalars__":
+                state[key] = z[key]
     return state
 
 
+# ---------------------------------------------------------------------- locks
+@contextlib.contextmanager
+def _folder_lock(folder: Path):
+    """Exclusive flock on a folder while files in it are created and renamed (milliseconds)."""
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # closing releases the lock
+
+
+def _try_lock(path: Path) -> int | None:
+    """An fd holding an exclusive flock on ``path``, or None when another process holds one."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except FileNotFoundError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _busy(path) -> InputError:
+    return InputError(path, "another track run is writing this result; wait for it to finish "
+                            "or choose another --out")
+
+
+def _utc_now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+# ---------------------------------------------------------------------- writing
+class ResultWriter:
+    """Exclusive, streamed writing of one result file (see the module docstring).
+
+    Use as a context manager; :meth:`start` creates the file, :meth:`append` adds one frame.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The result file ``RUN/<Subject>/<Action>_<Trial>.h5``.
+
+    Raises
+    ------
+    InputError
+        When ``path`` is a folder, its parent cannot be a folder, or another run holds the file.
+
+    Examples
+    --------
+    >>> with ResultWriter(path) as out:                             # doctest: +SKIP
+    ...     out.start(first_record, attrs={...}, state_names=..., part_names=...)
+    ...     out.append(first_record, filter_state, complete=False)
+    """
+
+    def __init__(self, path):
+        from ._atomic import ensure_output_dir
+
+        self.path = Path(path)
+        if self.path.is_dir():
+            raise InputError(self.path, "is a folder; give a file name")
+        ensure_output_dir(self.path.parent)
+        self.temp = self.path.with_name(f".{self.path.name}.partial")
+        self._file: h5py.File | None = None
+        self._n = 0
+        self._slot = -1
+        self._fd = _try_lock(self.path) if self.path.exists() else None
+        if self.path.exists() and self._fd is None:
+            raise _busy(self.path)
+
+    def __enter__(self) -> ResultWriter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def n_frames(self) -> int:
+        """Frames committed so far."""
+        return self._n
+
+    @property
+    def started(self) -> bool:
+        """Whether :meth:`start` created the file."""
+        return self._file is not None
+
+    def read_existing(self) -> TrackResult | None:
+        """The current file's committed content (read under this writer's lock), or None."""
+        return read_result(self.path) if self._fd is not None else None
+
+    def start(self, template=None, *, attrs: dict, state_names, part_names,
+              previous: TrackResult | None = None, replace: bool = False) -> None:
+        """Create the file (with ``previous``'s frames and checkpoint, when resuming).
+
+        Parameters
+        ----------
+        template : object, optional
+            A frame record (attributes named like :data:`PER_FRAME`, ``frame`` for ``frames``)
+            that sets each dataset's row shape; default the rows of ``previous``.
+        attrs : dict
+            File attributes (str, numbers, bool, lists of str); ``frame_rate`` is required.
+        state_names, part_names : sequence of str
+        previous : TrackResult, optional
+            Frames (and checkpoint) to carry over; ``previous.attrs["complete"]`` is kept.
+        replace : bool
+            Replace an existing file (which this writer must have locked) instead of refusing.
+        """
+        from ..joints import ENDPOINT_NAMES, LANDMARK_NAMES
+
+        if self._file is not None:
+            raise RuntimeError("ResultWriter.start: already started")
+        if "frame_rate" not in attrs:
+            raise ValueError("ResultWriter.start: attrs need the frame_rate")
+        header = {
+            "format": FORMAT, "format_version": FORMAT_VERSION,
+            "voxelmocap_version": _version(), "created": _utc_now(),
+            "length_unit": "mm", "angle_unit": "rad", "coordinate_frame": _COORDINATE_FRAME,
+            "landmark_names": list(LANDMARK_NAMES), "endpoint_names": list(ENDPOINT_NAMES),
+            "state_names": list(state_names), "part_names": list(part_names),
+            "score_names": list(_SCORE_NAMES), **attrs,
+        }
+        with _folder_lock(self.path.parent):
+            self._check_target(replace)
+            if self.temp.exists():  # left by a killed creation: nobody creates without this lock
+                self.temp.unlink()
+            try:
+                f = h5py.File(self.temp, "w", libver="latest", locking=_LOCKING)
+            except OSError as exc:
+                raise InputError(self.path, f"cannot write the result ({exc})") from None
+            try:
+                self._create(f, template, header, state_names, part_names, previous)
+                f.flush()
+                f.swmr_mode = True
+                fd = os.open(self.temp, os.O_RDONLY)
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # a new inode: nobody else has it
+                os.replace(self.temp, self.path)
+            except BaseException:
+                f.close()
+                self.temp.unlink(missing_ok=True)
+                raise
+        if self._fd is not None:
+            os.close(self._fd)  # the replaced file's lock
+        self._fd, self._file = fd, f
+
+    def _check_target(self, replace: bool) -> None:
+        """Under the folder lock: may this writer put a new file at ``path``?"""
+        if not self.path.exists():
+            return
+        if self._fd is not None and os.fstat(self._fd).st_ino == os.stat(self.path).st_ino:
+            if replace:
+                return
+            raise InputError(self.path, "result exists; use --resume to continue it or "
+                                        "--overwrite to replace it")
+        # The file appeared (or was replaced) after this writer was made.
+        fd = _try_lock(self.path)
+        if fd is None:
+            raise _busy(self.path)
+        os.close(fd)
+        raise InputError(self.path, "another run created this result meanwhile; use --resume "
+                                    "or --overwrite")
+
+    def _create(self, f, template, header, state_names, part_names, previous) -> None:
+        for key, value in header.items():
+            _set_attr(f.attrs, key, value)
+        f.create_dataset("state_names", data=list(state_names), dtype=_STR)
+        f.create_dataset("part_names", data=list(part_names), dtype=_STR)
+        n = 0 if previous is None else len(previous)
+        for name, (units, description) in PER_FRAME.items():
+            if template is not None:
+                shape = np.shape(getattr(template, "frame" if name == "frames" else name))
+            else:
+                shape = np.shape(getattr(previous, name))[1:]
+            dtype = np.int64 if name in _INT_ROWS else np.float64
+            rows = np.empty((n,) + shape, dtype) if previous is None else np.asarray(
+                getattr(previous, name), dtype=dtype).reshape((n,) + shape)
+            d = f.create_dataset(name, data=rows, maxshape=(None,) + shape,
+                                 chunks=(_CHUNK_ROWS,) + shape, dtype=dtype)
+            d.attrs["units"] = units
+            d.attrs["description"] = description
+        for slot in (0, 1):
+            d = f.create_dataset(f"checkpoint_{slot}", shape=(0,), maxshape=(None,),
+                                 chunks=(1 << 16,), dtype=np.uint8)
+            d.attrs["description"] = ("filter state after the committed frames when commit[1] "
+                                      f"== {slot}: the bytes of an uncompressed NumPy .npz")
+        slot = -1
+        if previous is not None and previous.checkpoint is not None:
+            slot = 0
+            _write_blob(f["checkpoint_0"], _pack_checkpoint(previous.checkpoint))
+        complete = int(bool(previous is not None and previous.attrs.get("complete")))
+        d = f.create_dataset("commit", data=np.array([n, slot, complete], dtype=np.int64))
+        d.attrs["description"] = ("committed frames, checkpoint slot (-1: none), complete (0/1); "
+                                  "rows beyond the committed frames are not results")
+        self._n, self._slot = n, slot
+
+    def append(self, record, checkpoint: dict | None, *, complete: bool = False) -> None:
+        """Add one frame and the filter state after it, then commit them.
+
+        Parameters
+        ----------
+        record : object
+            Attributes named like :data:`PER_FRAME` (``frame`` for ``frames``), e.g. a
+            :class:`voxelmocap.tracker.FrameRecord`.
+        checkpoint : dict or None
+            The filter state after this frame (None: the file then has no checkpoint).
+        complete : bool
+            Whether this is the run's last frame.
+        """
+        f = self._file
+        if f is None:
+            raise RuntimeError("ResultWriter.append: call start() first")
+        n = self._n
+        for name in PER_FRAME:
+            d = f[name]
+            d.resize(n + 1, axis=0)
+            d[n] = getattr(record, "frame" if name == "frames" else name)
+        slot = -1  # without a new state, no checkpoint matches the frames any more
+        if checkpoint is not None:
+            slot = 1 if self._slot == 0 else 0  # never overwrite the committed state
+            _write_blob(f[f"checkpoint_{slot}"], _pack_checkpoint(checkpoint))
+        # Everything above reaches the file before the commit that makes it count.
+        f.flush()
+        f["commit"][...] = (n + 1, slot, int(complete))
+        f.flush()
+        self._n, self._slot = n + 1, slot
+
+    def close(self) -> None:
+        """Close the file and release the lock (idempotent)."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+
+def _write_blob(d: h5py.Dataset, data: np.ndarray) -> None:
+    d.resize((len(data),))
+    d[:] = data
+
+
+def _set_attr(attrs, key: str, value) -> None:
+    if isinstance(value, str):
+        attrs.create(key, data=value, dtype=_STR)
+    elif isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+        attrs.create(key, data=list(value), dtype=_STR)
+    elif value is None:
+        attrs.create(key, data="", dtype=_STR)
+    else:
+        attrs[key] = value
+
+
 def write_result(path, result: TrackResult) -> None:
-    """Write (replace) a result file atomically."""
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
-            for name in _PER_FRAME:
-                f.create_dataset(name, data=np.asarray(getattr(result, name)))
-            f.create_dataset("state_names", data=np.array(result.state_names, dtype="S"))
-            f.create_dataset("part_names", data=np.array(result.part_names, dtype="S"))
-            for key, value in result.attrs.items():
-                f.attrs[key] = value
-            if result.checkpoint is not None:
-                _write_checkpoint(f.create_group("checkpoint"), result.checkpoint)
+    """Write a whole result at once, replacing any file (for tests and conversions).
+
+    ``result.attrs`` may hold ``complete``; ``frame_rate`` defaults to HumanEva-I's 60 Hz.
+    """
+    attrs = {k: v for k, v in result.attrs.items() if k != "complete"}
+    attrs.setdefault("frame_rate", 60.0)
+    with ResultWriter(path) as out:
+        out.start(attrs=attrs, state_names=result.state_names, part_names=result.part_names,
+                  previous=result, replace=True)
 
 
+# ---------------------------------------------------------------------- reading
 def _check_shapes(path, data: dict) -> None:
     n = len(np.atleast_1d(data["frames"]))
     expected = {"frames": (n,), "state": (n, None), "landmarks": (n, 15, 3),
@@ -108,44 +425,105 @@ def _check_shapes(path, data: dict) -> None:
                 "map_state": (n, None)}
     for name, shape in expected.items():
         got = np.shape(data[name])
-        if len(got) != len(shape) or any(e is not None and g != e for g, e in zip(got, shape, strict=True)):
+        if len(got) != len(shape) or any(e is not None and g != e
+                                         for g, e in zip(got, shape, strict=True)):
             want = "×".join("*" if e is None else str(e) for e in shape)
             raise InputError(path, f"dataset {name!r} has shape {got}, expected {want}")
 
 
+def _attr_value(value):
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray) and value.dtype.kind in "OSU":
+        return [v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _identify(path, f) -> None:
+    fmt = f.attrs.get("format")
+    if fmt is None:
+        if "state" in f and "frames" in f:
+            raise InputError(path, "written by an older voxelmocap (result format 1, before "
+                                   "streamed results): track the sequence again")
+        raise InputError(path, "not a voxelmocap result file (no 'format' attribute)")
+    if _attr_value(fmt) != FORMAT:
+        raise InputError(path, f"not a voxelmocap result file (format {_attr_value(fmt)!r})")
+    version = int(f.attrs.get("format_version", 0))
+    if version > FORMAT_VERSION:
+        raise InputError(path, f"written by a newer voxelmocap (result format {version}; this "
+                               f"one reads up to {FORMAT_VERSION})")
+
+
+#: What h5py raises on files it cannot parse (damaged superblock, B-trees, heaps …).
+_H5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+
+
+def _open(path: Path) -> h5py.File:
+    try:
+        # SWMR-read mode also opens a file whose writer is running or was killed.
+        return h5py.File(path, "r", swmr=True, locking=_LOCKING)
+    except _H5_ERRORS as exc:
+        first = exc
+    try:
+        return h5py.File(path, "r", locking=_LOCKING)
+    except _H5_ERRORS:
+        raise InputError(path, f"cannot read HDF5 result file ({first})") from None
+
+
 def read_result(path) -> TrackResult:
-    """Read a result file written by :func:`write_result`.
+    """Read the committed frames of a result file.
 
     Raises
     ------
     InputError
-        Missing file, not HDF5, or a file lacking the result datasets.
+        Missing file, not HDF5, another format or an older version, missing or damaged datasets.
     """
     path = Path(path)
     if not path.exists():
         raise InputError(path, "result file not found")
-    try:
-        with h5py.File(path, "r") as f:
-            missing = [n for n in (*_PER_FRAME, "state_names", "part_names") if n not in f]
-            if missing:
-                raise InputError(path, f"not a voxelmocap result file (no {missing[0]!r} dataset)")
-            data = {n: f[n][()] for n in _PER_FRAME}
-            _check_shapes(path, data)
-            checkpoint = None
-            if "checkpoint" in f:
-                if "scalars" not in f["checkpoint"].attrs:
-                    raise InputError(path, "damaged checkpoint (no 'scalars' attribute)")
-                try:
-                    checkpoint = _read_checkpoint(f["checkpoint"])
-                except ValueError as exc:
-                    raise InputError(path, f"damaged checkpoint ({exc})") from None
-            return TrackResult(
-                **data,
-                state_names=[s.decode() for s in f["state_names"][()]],
-                part_names=[s.decode() for s in f["part_names"][()]],
-                attrs={k: (v.item() if isinstance(v, np.generic) else v)
-                       for k, v in f.attrs.items()},
-                checkpoint=checkpoint,
-            )
-    except OSError as exc:
-        raise InputError(path, f"cannot read HDF5 result file ({exc})") from None
+    if path.is_dir():
+        raise InputError(path, "is a folder, not a result file")
+    with _open(path) as f:
+        try:
+            return _read(path, f)
+        except InputError:
+            raise
+        except _H5_ERRORS as exc:
+            raise InputError(path, f"damaged HDF5 result file ({type(exc).__name__}: {exc})"
+                             ) from None
+
+
+def _read(path: Path, f: h5py.File) -> TrackResult:
+    """The committed content of an open result file (see :func:`read_result`)."""
+    _identify(path, f)
+    missing = [n for n in (*PER_FRAME, "state_names", "part_names", "commit") if n not in f]
+    if missing:
+        raise InputError(path, f"damaged result file (no {missing[0]!r} dataset)")
+    commit = np.asarray(f["commit"][()])
+    if commit.shape != (3,) or commit.dtype.kind not in "iu":
+        raise InputError(path, "damaged result file (bad 'commit' record)")
+    n, slot, complete = (int(v) for v in commit)
+    lengths = {name: f[name].shape[0] if f[name].shape else 0 for name in PER_FRAME}
+    short = [name for name, length in lengths.items() if length < n]
+    if n < 0 or short or slot not in (-1, 0, 1):
+        raise InputError(path, f"damaged result file (commit says {n} frames, slot {slot}"
+                               + (f"; {short[0]!r} has {lengths[short[0]]}" if short else "")
+                               + ")")
+    data = {name: f[name][:n] for name in PER_FRAME}
+    _check_shapes(path, data)
+    checkpoint = None
+    if slot >= 0:
+        try:
+            checkpoint = _unpack_checkpoint(f[f"checkpoint_{slot}"][()])
+        except Exception as exc:  # any decoding failure means damage
+            raise InputError(path, f"damaged checkpoint ({type(exc).__name__}: {exc})"
+                             ) from None
+    attrs = {k: _attr_value(v) for k, v in f.attrs.items()}
+    attrs["complete"] = bool(complete)
+    return TrackResult(
+        **data,
+        state_names=list(f["state_names"].asstr()[()]),
+        part_names=list(f["part_names"].asstr()[()]),
+        attrs=attrs, checkpoint=checkpoint)

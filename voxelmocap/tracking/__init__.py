@@ -24,7 +24,7 @@ from .annealing import (
     layer_noise_scales,
     tempered_log_weights,
 )
-from .apf import STRATEGIES, AnnealedParticleFilter
+from .apf import STRATEGIES, AnnealedParticleFilter, check_options
 from .dynamics import DYNAMICS, Dynamics, RandomWalk, TwoStateElbow, VelocityModel
 from .resampling import SCHEMES, Weights, get_scheme, systematic
 from .truncated import truncated_normal, truncated_normal_logpdf
@@ -41,6 +41,7 @@ __all__ = [
     "TwoStateElbow",
     "VelocityModel",
     "Weights",
+    "check_options",
     "ess_fraction",
     "find_beta",
     "get_scheme",

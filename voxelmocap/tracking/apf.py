@@ -57,7 +57,7 @@ from .dynamics import Dynamics, RandomWalk
 from .resampling import Weights, get_scheme
 from .truncated import truncated_normal, truncated_normal_logpdf
 
-__all__ = ["STRATEGIES", "AnnealedParticleFilter"]
+__all__ = ["STRATEGIES", "AnnealedParticleFilter", "check_options"]
 
 STRATEGIES = ("sir", "apf", "iapf")
 """Names accepted by ``strategy``."""
@@ -65,6 +65,47 @@ STRATEGIES = ("sir", "apf", "iapf")
 LogLikelihood = Callable[[np.ndarray], np.ndarray]
 Proposal = Callable[[int, np.random.Generator], np.ndarray]
 _HISTORY = 2  # estimates kept for the dynamics (Azad's velocity needs the last two)
+
+
+def check_options(*, n_particles=2, n_layers=1, strategy="apf", survival=0.5, betas=None,
+                  alphas=None, noise_decay=0.5, iapf_fractions=(0.8, 0.2),
+                  resampling="systematic", beta_max=np.inf) -> None:
+    """Check the filter's options (the one statement of their legal ranges).
+
+    :class:`AnnealedParticleFilter` calls it, and so does the configuration
+    (``voxelmocap.config.FilterConfig``), so a TOML file is held to the same rules.
+
+    Raises
+    ------
+    InputError
+        Naming the option (its constructor name) and the rule it breaks.
+    """
+    if strategy not in STRATEGIES:
+        raise InputError("strategy", f"unknown {strategy!r}; use one of {', '.join(STRATEGIES)}")
+    if isinstance(n_particles, bool) or int(n_particles) != n_particles or n_particles < 2:
+        raise InputError("n_particles", f"must be an integer >= 2, got {n_particles}")
+    if isinstance(n_layers, bool) or int(n_layers) != n_layers or n_layers < 1:
+        raise InputError("n_layers", f"must be an integer >= 1, got {n_layers}")
+    if not 0.0 < survival <= 1.0:
+        raise InputError("survival", f"must be in (0, 1], got {survival}")
+    if not beta_max > 0:
+        raise InputError("beta_max", f"must be > 0, got {beta_max}")
+    if betas is not None:
+        b = np.asarray(betas, dtype=np.float64)
+        if b.shape != (int(n_layers),) or np.any(~(b >= 0)) or np.any(~np.isfinite(b)):
+            raise InputError("betas", f"must be {int(n_layers)} finite numbers >= 0 (one per "
+                                      "layer)")
+    try:
+        layer_noise_scales(int(n_layers), noise_decay=noise_decay, alphas=alphas)
+    except ValueError as exc:
+        raise InputError("alphas" if alphas is not None else "noise_decay", str(exc)) from None
+    f = np.asarray(iapf_fractions, dtype=np.float64)
+    if f.shape != (2,) or np.any(~(f >= 0)) or f.sum() > 1.0 + 1e-12:
+        raise InputError("iapf_fractions", "must be two fractions >= 0 summing to <= 1")
+    try:
+        get_scheme(resampling)
+    except ValueError as exc:
+        raise InputError("resampling", str(exc)) from None
 
 
 class AnnealedParticleFilter:
@@ -137,13 +178,9 @@ class AnnealedParticleFilter:
                  proposal: Proposal | None = None, proposal_log_pdf=None,
                  iapf_fractions=(0.8, 0.2), resampling: str = "systematic",
                  beta_max: float = np.inf):
-        if strategy not in STRATEGIES:
-            raise InputError("strategy",
-                             f"unknown {strategy!r}; use one of {', '.join(STRATEGIES)}")
-        if int(n_particles) != n_particles or n_particles < 2:
-            raise InputError("n_particles", f"must be an integer >= 2, got {n_particles}")
-        if int(n_layers) != n_layers or n_layers < 1:
-            raise InputError("n_layers", f"must be an integer >= 1, got {n_layers}")
+        check_options(n_particles=n_particles, n_layers=n_layers, strategy=strategy,
+                      survival=survival, betas=betas, alphas=alphas, noise_decay=noise_decay,
+                      iapf_fractions=iapf_fractions, resampling=resampling, beta_max=beta_max)
         self.low = np.asarray(low, dtype=np.float64).ravel()
         self.high = np.asarray(high, dtype=np.float64).ravel()
         if self.low.shape != self.high.shape or self.low.size == 0:
@@ -159,10 +196,6 @@ class AnnealedParticleFilter:
             raise InputError("noise_std", f"must be a scalar or {self.dim} values") from None
         if np.any(~np.isfinite(self.noise_std)) or np.any(self.noise_std < 0):
             raise InputError("noise_std", "must be finite and >= 0")
-        if not 0.0 < survival <= 1.0:
-            raise InputError("survival", f"must be in (0, 1], got {survival}")
-        if not beta_max > 0:
-            raise InputError("beta_max", "must be > 0")
 
         self.strategy = strategy
         self.n_particles = int(n_particles)
@@ -176,21 +209,10 @@ class AnnealedParticleFilter:
         else:
             self._n = self.n_particles
             self._layers = self.n_layers
-            self._betas = None
-            if betas is not None:
-                b = np.asarray(betas, dtype=np.float64)
-                if b.shape != (self.n_layers,) or np.any(~(b >= 0)) or np.any(~np.isfinite(b)):
-                    raise InputError("betas", f"must be {self.n_layers} finite numbers >= 0")
-                self._betas = b
-            try:
-                self._scales = layer_noise_scales(self.n_layers, noise_decay=noise_decay,
-                                                  alphas=alphas)
-            except ValueError as exc:
-                raise InputError("alphas" if alphas is not None else "noise_decay",
-                                 str(exc)) from None
+            self._betas = None if betas is None else np.asarray(betas, dtype=np.float64)
+            self._scales = layer_noise_scales(self.n_layers, noise_decay=noise_decay,
+                                              alphas=alphas)
         f = np.asarray(iapf_fractions, dtype=np.float64)
-        if f.shape != (2,) or np.any(~(f >= 0)) or f.sum() > 1.0 + 1e-12:
-            raise InputError("iapf_fractions", "must be two fractions >= 0 summing to <= 1")
         self.iapf_fractions = (float(f[0]), float(f[1]))
         self.survival = float(survival)
         self.beta_max = float(beta_max)
@@ -198,10 +220,7 @@ class AnnealedParticleFilter:
         self.dynamics = RandomWalk() if dynamics is None else dynamics
         self.proposal = proposal
         self.proposal_log_pdf = proposal_log_pdf
-        try:
-            self._resample = get_scheme(resampling)
-        except ValueError as exc:
-            raise InputError("resampling", str(exc)) from None
+        self._resample = get_scheme(resampling)
         self.resampling = resampling
 
         self.particles: np.ndarray | None = None

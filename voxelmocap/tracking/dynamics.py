@@ -17,7 +17,8 @@ as indices.
   model, but while a particle's elbow angle is within ``threshold`` of straight (0.2 rad), the noise
   on the matching shoulder twist is ``singular_std`` (0.4 rad) instead of the base noise.
 
-Models are looked up by name in :data:`DYNAMICS`.
+Models are looked up by name in :data:`DYNAMICS` (the configuration's ``filter.dynamics``; the
+body tracker builds them with ``voxelmocap.tracker.build_dynamics``).
 
 >>> import numpy as np
 >>> m = VelocityModel(0.7)
@@ -87,7 +88,7 @@ class VelocityModel(Dynamics):
     Parameters
     ----------
     factor : float
-        The diagonal of ``A`` (0.7 in paper 000 eq. 15).
+        The diagonal of ``A`` (0.7 in paper 000 eq. 15), in ``[0, 1]``.
     indices : sequence of int, optional
         State dimensions that receive the drift; all when None (e.g. leave out angles that wrap).
 
@@ -98,6 +99,8 @@ class VelocityModel(Dynamics):
     """
 
     def __init__(self, factor: float = 0.7, indices=None):
+        if not 0.0 <= factor <= 1.0:  # > 1 would amplify the velocity frame after frame
+            raise ValueError(f"{type(self).__name__}: factor must be in [0, 1], got {factor}")
         self.factor = float(factor)
         self.indices = None if indices is None else np.asarray(indices, dtype=np.intp)
 

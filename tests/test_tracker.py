@@ -1,0 +1,248 @@
+"""The body tracker on rasterised poses: records, initialisation, checkpoints, observers."""
+
+import re
+
+import numpy as np
+import pytest
+
+from voxelmocap.body import BodyModel
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.errors import InputError
+from voxelmocap.grid import VoxelGrid
+from voxelmocap.likelihood import Measurement, log_likelihood, part_scores, rasterise
+from voxelmocap.tracker import (
+    BodyTracker,
+    Collector,
+    build_dynamics,
+    noise_profile,
+)
+from voxelmocap.tracking import RandomWalk, TwoStateElbow, VelocityModel
+
+SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 40})
+MODEL = BodyModel()
+GRID = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
+
+
+def walk_states(n=4):
+    """Standing poses sliding 30 mm per frame along +Y with a swinging right knee."""
+    x = np.repeat(MODEL.default_state()[None], n, axis=0)
+    x[:, 1] += 30.0 * np.arange(n)
+    x[:, list(MODEL.state_names).index("r_knee")] = np.linspace(0.0, 0.6, n)
+    return MODEL.clip(x)
+
+
+def observations(states):
+    return [Measurement(rasterise(MODEL, s[None], GRID) > 0, GRID) for s in states]
+
+
+@pytest.fixture(scope="module")
+def walk():
+    states = walk_states()
+    return states, observations(states)
+
+
+def test_record_describes_the_estimate(walk):
+    states, obs = walk
+    tracker = BodyTracker(MODEL, SMALL, seed=3)
+    assert tracker.initialise(obs[0], MODEL.landmarks(states[:1])[0], frame=7) \
+        == "the ground truth of frame 7"
+    record = tracker.step(obs[0], frame=7)
+    est = record.state[None]
+    # Every field against the model and the likelihood called directly on the estimate.
+    assert record.frame == 7
+    np.testing.assert_array_equal(record.landmarks, MODEL.landmarks(est)[0])
+    np.testing.assert_array_equal(record.endpoints, MODEL.endpoints(est)[0])
+    np.testing.assert_array_equal(record.part_scores, part_scores(obs[0], MODEL, est)[0])
+    assert record.log_likelihood == pytest.approx(
+        float(log_likelihood(obs[0], MODEL, est, variances=SMALL.likelihood.variances)[0]),
+        abs=1e-12)
+    np.testing.assert_array_equal(record.map_state, tracker.filter.map_particle)
+    assert record.ess.shape == record.betas.shape == (2,)
+    assert np.all((record.ess >= 1.0) & (record.ess <= 40.0))
+    assert 0.0 <= record.likelihood_seconds <= record.seconds
+
+
+def test_tracker_equals_the_filter_it_assembles(walk):
+    """The tracker adds nothing to the filter's numbers: same seed, same estimates."""
+    from voxelmocap.body import fit_to_landmarks
+    from voxelmocap.tracker import build_filter
+
+    states, obs = walk
+    gt = MODEL.landmarks(states[:1])[0]
+    tracker = BodyTracker(MODEL, SMALL, seed=5)
+    records = tracker.track(obs, frames=range(1, len(obs) + 1), ground_truth=gt)
+    pf = build_filter(MODEL, SMALL, np.random.default_rng(5))
+    pf.initialise(fit_to_landmarks(MODEL, gt), SMALL.init.spread * noise_profile(MODEL, SMALL))
+    for record, o in zip(records, obs, strict=True):
+        est = pf.step(lambda x, o=o: log_likelihood(o, MODEL, x,
+                                                    variances=SMALL.likelihood.variances))
+        np.testing.assert_array_equal(record.state, MODEL.clip(est[None])[0])
+
+
+def test_checkpoint_resumes_bit_identically(walk):
+    states, obs = walk
+    gt = MODEL.landmarks(states[:1])[0]
+    full = BodyTracker(MODEL, SMALL, seed=11).track(obs, ground_truth=gt)
+    first = BodyTracker(MODEL, SMALL, seed=11)
+    first.track(obs[:2], ground_truth=gt)
+    checkpoint = first.get_state()
+    second = BodyTracker(MODEL, SMALL, seed=999)  # the seed is overwritten by the checkpoint
+    second.set_state(checkpoint)
+    rest = second.track(obs[2:])
+    for a, b in zip(full[2:], rest, strict=True):
+        np.testing.assert_array_equal(a.state, b.state)
+        np.testing.assert_array_equal(a.map_state, b.map_state)
+        np.testing.assert_array_equal(a.ess, b.ess)
+
+
+def test_observers_see_every_record(walk):
+    states, obs = walk
+    seen = []
+    kept = Collector("frame", "state")
+    tracker = BodyTracker(MODEL, SMALL, seed=0,
+                          observers=[kept, lambda rec, trk: seen.append((rec.frame, trk))])
+    records = tracker.track(obs, frames=[3, 4, 5, 6], ground_truth=MODEL.landmarks(states[:1])[0])
+    assert [f for f, _ in seen] == [3, 4, 5, 6] and all(t is tracker for _, t in seen)
+    out = kept.stacked()
+    np.testing.assert_array_equal(out["frame"], [3, 4, 5, 6])
+    np.testing.assert_array_equal(out["state"], np.array([r.state for r in records]))
+    with pytest.raises(ValueError, match="no field"):
+        Collector("nope")
+
+
+def test_noise_override_replaces_the_profile():
+    profile = noise_profile(MODEL, SMALL)
+    names = list(MODEL.state_names)
+    # The profile itself: translation, root and trunk on their own stds, limbs on the joints'.
+    assert np.all(profile[:3] == SMALL.filter.translation_std_mm)
+    assert profile[names.index("waist_flex")] == SMALL.filter.rotation_std_rad
+    assert profile[names.index("l_knee")] == SMALL.filter.joint_std_rad
+    custom = np.full(27, 0.01)
+    tracker = BodyTracker(MODEL, SMALL, noise_std=custom)
+    np.testing.assert_array_equal(tracker.filter.noise_std, custom)
+    np.testing.assert_array_equal(BodyTracker(MODEL, SMALL).filter.noise_std, profile)
+    with pytest.raises(InputError, match="noise_std"):
+        BodyTracker(MODEL, SMALL, noise_std=np.ones(26))
+    with pytest.raises(InputError, match="noise_std"):
+        BodyTracker(MODEL, SMALL, noise_std=-custom)
+
+
+def test_initialisation_methods(walk):
+    states, obs = walk
+    gt = MODEL.landmarks(states[:1])[0]
+    vox = BodyTracker(MODEL, with_overrides(SMALL, **{"init.method": "voxels"}))
+    method, state = vox.initial_state(obs[0], gt, frame=1)
+    assert method.startswith("the voxels of frame 1")
+    # the blob's centroid, standing, facing one of the 36 headings
+    assert abs(state[0] - states[0, 0]) < 60.0 and abs(state[1] - states[0, 1]) < 60.0
+    auto = BodyTracker(MODEL, SMALL)
+    assert auto.initial_state(obs[0], None, frame=2)[0].startswith("the voxels of frame 2")
+    assert auto.initial_state(obs[0], gt, frame=2)[0] == "the ground truth of frame 2"
+    strict = BodyTracker(MODEL, with_overrides(SMALL, **{"init.method": "ground_truth"}))
+    with pytest.raises(InputError, match="ground truth of frame 4 is not available"):
+        strict.initialise(obs[0], None, frame=4)
+    empty = Measurement(np.zeros(GRID.shape, bool), GRID)
+    with pytest.raises(InputError, match="no occupied voxel"):
+        vox.initialise(empty, None, frame=1)
+    with pytest.raises(RuntimeError, match="initialise"):
+        BodyTracker(MODEL, SMALL).step(obs[0])
+
+
+def test_dynamics_built_by_name():
+    for name, cls in [("random_walk", RandomWalk), ("velocity", VelocityModel),
+                      ("elbow", TwoStateElbow)]:
+        dyn = build_dynamics(MODEL, with_overrides(SMALL, **{"filter.dynamics": name}).filter)
+        assert type(dyn) is cls
+    elbow = build_dynamics(MODEL, with_overrides(SMALL, **{"filter.dynamics": "elbow"}).filter)
+    names = list(MODEL.state_names)
+    assert list(elbow.twist_indices) == [names.index("l_shoulder_rot"),
+                                         names.index("r_shoulder_rot")]
+    assert list(elbow.elbow_indices) == [names.index("l_elbow"), names.index("r_elbow")]
+
+
+def test_every_filter_option_reaches_the_filter_from_toml():
+    import dataclasses
+
+    from voxelmocap.config import config_from_toml
+    from voxelmocap.tracker import build_filter
+
+    text = """
+    [filter]
+    layers = 3
+    particles = 50
+    survival = 0.3
+    noise_decay = 0.7
+    betas = [0.1, 0.4, 1.0]
+    alphas = [1.0, 4.0, 25.0]
+    beta_max = 50.0
+    resampling = "residual"
+    iapf_fractions = [0.7, 0.1]
+    dynamics = "elbow"
+    velocity_factor = 0.5
+    elbow_threshold_rad = 0.3
+    elbow_singular_std_rad = 0.6
+    """
+    cfg = config_from_toml(text)
+    pf = build_filter(MODEL, cfg, 0)
+    assert (pf.n_layers, pf.n_particles, pf.survival, pf.beta_max) == (3, 50, 0.3, 50.0)
+    np.testing.assert_array_equal(pf._betas, [0.1, 0.4, 1.0])
+    np.testing.assert_allclose(pf._scales, 1.0 / np.sqrt([1.0, 4.0, 25.0]))  # alphas win
+    assert pf.resampling == "residual" and pf.iapf_fractions == (0.7, 0.1)
+    dyn = pf.dynamics
+    assert (type(dyn), dyn.factor, dyn.threshold, dyn.singular_std) == (TwoStateElbow, 0.5, 0.3,
+                                                                       0.6)
+    # noise_decay reaches the filter when no alphas are given
+    pf = build_filter(MODEL, dataclasses.replace(cfg, filter=dataclasses.replace(
+        cfg.filter, alphas=None)), 0)
+    np.testing.assert_allclose(pf._scales, np.sqrt(0.7 ** np.arange(3)))
+    # every FilterConfig field is one of the above or a noise / size / strategy setting
+    used = {"layers", "particles", "survival", "noise_decay", "betas", "alphas", "beta_max",
+            "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
+            "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
+            "joint_std_rad"}
+    assert {f.name for f in dataclasses.fields(cfg.filter)} == used
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("survival = 0.0", "'filter.survival' must be in (0, 1]"),
+        ("survival = 1.2", "'filter.survival' must be in (0, 1]"),
+        ("particles = 1", "'filter.particles' must be an integer >= 2"),
+        ("betas = [0.1, 1.0]", "'filter.betas' must be 6 finite numbers"),
+        ("alphas = [1.0, 0.0, 1.0, 1.0, 1.0, 1.0]", "'filter.alphas'"),
+        ("noise_decay = 1.5", "'filter.noise_decay'"),
+        ("beta_max = -1.0", "'filter.beta_max' must be > 0"),
+        ("resampling = 'magic'", "'filter.resampling' must be one of"),
+        ("iapf_fractions = [0.8, 0.5]", "'filter.iapf_fractions' must be two fractions"),
+        ("strategy = 'iapf'", "no measurement-driven proposal"),
+        ("velocity_factor = 1.5", "factor must be in [0, 1]"),
+        ("elbow_singular_std_rad = -0.1", "must be >= 0"),
+    ],
+)
+def test_filter_options_are_checked_by_the_filters_own_rules(text, message):
+    from voxelmocap.config import config_from_toml
+
+    with pytest.raises(InputError, match=re.escape(message)):
+        config_from_toml(f"[filter]\n{text}\n", source="cfg.toml")
+
+
+def test_one_statement_of_the_ranges_and_names():
+    """The config accepts exactly what the filter accepts, and offers the registries' names."""
+    import dataclasses
+
+    from voxelmocap.config import FilterConfig, config_from_toml
+    from voxelmocap.tracking import DYNAMICS, SCHEMES, STRATEGIES, AnnealedParticleFilter
+
+    cfg = config_from_toml("[filter]\nsurvival = 1.0\n")  # the filter's (0, 1], not (0, 1)
+    AnnealedParticleFilter(10, 2, [0.0], [1.0], 0.1, survival=cfg.filter.survival)
+    choices = {f.name: set(f.metadata["choices"]) for f in dataclasses.fields(FilterConfig)
+               if "choices" in f.metadata}
+    assert choices == {"strategy": set(STRATEGIES), "dynamics": set(DYNAMICS),
+                       "resampling": set(SCHEMES)}
+    iapf = config_from_toml("[filter]\nstrategy = 'iapf'\niapf_fractions = [0.8, 0.0]\n"
+                            "layers = 2\nparticles = 20\n")
+    states = walk_states(2)  # tracks: 80 % from the dynamics, 20 % from the prior, corrected
+    tracker = BodyTracker(MODEL, iapf, seed=0)
+    tracker.track(observations(states), ground_truth=MODEL.landmarks(states[:1])[0])
+    assert tracker.filter.iapf_corrected

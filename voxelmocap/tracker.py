@@ -1,0 +1,432 @@
+"""The body tracker: the body model, its voxel likelihood and the annealed particle filter, per frame.
+
+:class:`BodyTracker` owns everything between a measured frame and a pose estimate:
+
+* the body model (:class:`~voxelmocap.body.BodyModel`) and the likelihood's variances;
+* the noise profile (:func:`noise_profile`: which state dimension gets which propagation noise);
+* the dynamics, built by name from :data:`voxelmocap.tracking.DYNAMICS` (:func:`build_dynamics`);
+* the filter (:class:`~voxelmocap.tracking.AnnealedParticleFilter`, :func:`build_filter`);
+* the initialisation (fit to a ground-truth pose, or a search around the voxel blob).
+
+It knows nothing about files: the runner (:mod:`voxelmocap.pipeline`) measures frames and writes
+what :meth:`BodyTracker.step` returns, a :class:`FrameRecord`. Studies and benchmarks call the same
+class, so they measure the product, not a copy of its loop.
+
+Observers, in the spirit of the ``particles`` library's collectors, are callables
+``observer(record, tracker)`` called after every step (:class:`Collector` stacks chosen record
+fields). :meth:`BodyTracker.get_state` / :meth:`BodyTracker.set_state` checkpoint the filter so
+that a resumed run continues bit-identically.
+
+>>> import numpy as np
+>>> from voxelmocap.body import BodyModel
+>>> from voxelmocap.config import TrackConfig, with_overrides
+>>> from voxelmocap.grid import VoxelGrid
+>>> from voxelmocap.likelihood import Measurement, rasterise
+>>> model = BodyModel()
+>>> grid = VoxelGrid((-1000.0, -1000.0, 0.0), 40.0, (50, 50, 50))
+>>> seen = Measurement(rasterise(model, model.default_state()[None], grid) > 0, grid)
+>>> config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 20})
+>>> tracker = BodyTracker(model, config, seed=0)
+>>> tracker.initialise(seen, model.landmarks(model.default_state()[None])[0], frame=1)
+'the ground truth of frame 1'
+>>> record = tracker.step(seen, frame=1)
+>>> record.landmarks.shape, record.endpoints.shape, record.ess.shape
+((15, 3), (20, 3), (2,))
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import FilterConfig, TrackConfig
+from .errors import InputError
+
+__all__ = [
+    "BodyTracker",
+    "Collector",
+    "FrameRecord",
+    "build_dynamics",
+    "build_filter",
+    "ground_truth_landmarks",
+    "initial_state_from_voxels",
+    "noise_profile",
+]
+
+#: Trunk angles that get the root rotation's noise, not the limbs' (see :func:`noise_profile`).
+TRUNK_ANGLES = ("waist_flex", "waist_side", "waist_twist", "neck_flex", "neck_side")
+
+
+@dataclass(frozen=True)
+class FrameRecord:
+    """What one tracked frame produced (the estimate is clipped into the model's legal ranges).
+
+    Attributes
+    ----------
+    frame : int
+        Synchronised 1-based frame number.
+    state : (27,) ndarray
+        The estimate: weighted mean of the last annealing layer (mm, rad).
+    map_state : (27,) ndarray
+        The particle of largest last-layer weight (not clipped; it is a particle).
+    landmarks : (15, 3) ndarray
+        Landmarks of ``state`` (mm) in ``voxelmocap.joints.LANDMARK_NAMES`` order.
+    endpoints : (20, 3) ndarray
+        ``body_pose`` endpoints of ``state`` (mm) in ``ENDPOINT_NAMES`` order.
+    part_scores : (n_parts, 4) ndarray
+        Out, DO, Empty, Surf of every part of ``state``.
+    ess, betas : (L,) ndarray
+        Effective sample size and likelihood exponent of each annealing layer.
+    seconds : float
+        Wall time of :meth:`BodyTracker.step` (the runner stores the whole frame's instead,
+        measurement included).
+    log_likelihood : float
+        Log-likelihood of ``state`` (from ``part_scores``).
+    likelihood_seconds : float
+        The part of ``seconds`` spent in the filter's likelihood evaluations.
+    """
+
+    frame: int
+    state: np.ndarray
+    map_state: np.ndarray
+    landmarks: np.ndarray
+    endpoints: np.ndarray
+    part_scores: np.ndarray
+    ess: np.ndarray
+    betas: np.ndarray
+    seconds: float
+    log_likelihood: float
+    likelihood_seconds: float = 0.0
+
+
+Observer = Callable[[FrameRecord, "BodyTracker"], None]
+
+
+class Collector:
+    """An observer that keeps chosen fields of every record, e.g. ``Collector("state")``.
+
+    >>> c = Collector("frame", "log_likelihood")
+    >>> c.stacked()["frame"].shape
+    (0,)
+    """
+
+    def __init__(self, *fields: str):
+        unknown = [f for f in fields if f not in FrameRecord.__dataclass_fields__]
+        if unknown:
+            raise ValueError(f"Collector: FrameRecord has no field {unknown[0]!r}")
+        self.fields = fields or tuple(FrameRecord.__dataclass_fields__)
+        self.values: dict[str, list] = {f: [] for f in self.fields}
+
+    def __call__(self, record: FrameRecord, tracker: BodyTracker) -> None:
+        for f in self.fields:
+            self.values[f].append(getattr(record, f))
+
+    def stacked(self) -> dict[str, np.ndarray]:
+        """Each field's values stacked along a new first axis (frames)."""
+        return {f: np.array(v) for f, v in self.values.items()}
+
+
+# ---------------------------------------------------------------------------- assembly
+def noise_profile(model, config: TrackConfig) -> np.ndarray:
+    """(27,) per-frame propagation noise (mm, rad): translation, root rotation and joint groups.
+
+    The root, waist and neck angles get ``rotation_std_rad``; shoulders, elbows, hips and knees
+    ``joint_std_rad``. The trunk moves as slowly as the root, and the pelvis orientation is nearly
+    unobservable (no part spans the pelvis), so a compensating root pitch + waist flexion + hip
+    flexion change costs almost nothing in the likelihood. With the limbs' larger noise on the
+    waist the filter random-walked along that direction (root pitch −40°, waist +44° after 6
+    frames of a walk) and lost the legs. Measured with ``scripts/study_tracking.py`` (synthetic,
+    7 cameras, 6 × 300 particles, ``joint_std_rad`` 0.1): trunk on the limbs' noise → on the
+    root's: walk μ 58 → 59 mm (5 seeds, no change), jog 67 → 60 mm, box 68 → 56 mm (3 seeds);
+    ``docs/benchmarks.md``, tracking accuracy study.
+    """
+    fc = config.filter
+    std = np.full(model.n_dims, fc.joint_std_rad)
+    std[:3] = fc.translation_std_mm
+    std[3:6] = fc.rotation_std_rad
+    names = list(model.state_names)
+    std[[names.index(n) for n in TRUNK_ANGLES]] = fc.rotation_std_rad
+    return std
+
+
+def build_dynamics(model, fc: FilterConfig):
+    """The motion model named by ``fc.dynamics`` (:data:`voxelmocap.tracking.DYNAMICS`).
+
+    The velocity drift applies to every state dimension (heading included: the estimates it is
+    taken from never jump across ±π within a frame or two of a walk).
+    """
+    from .tracking import DYNAMICS, TwoStateElbow, VelocityModel
+
+    cls = DYNAMICS[fc.dynamics]
+    kwargs = {}
+    if issubclass(cls, VelocityModel):
+        kwargs["factor"] = fc.velocity_factor
+    if issubclass(cls, TwoStateElbow):
+        names = list(model.state_names)
+        kwargs.update(twist_indices=[names.index("l_shoulder_rot"), names.index("r_shoulder_rot")],
+                      elbow_indices=[names.index("l_elbow"), names.index("r_elbow")],
+                      threshold=fc.elbow_threshold_rad, singular_std=fc.elbow_singular_std_rad)
+    return cls(**kwargs)
+
+
+def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
+    """The annealed particle filter of a config, over the body model's legal ranges.
+
+    Parameters
+    ----------
+    model : BodyModel
+    config : TrackConfig
+        ``config.filter`` is used.
+    rng : numpy.random.Generator or int
+        The filter's generator (or its seed).
+    noise_std : (27,) array_like, optional
+        Propagation noise; default :func:`noise_profile`.
+    """
+    from .tracking import AnnealedParticleFilter
+
+    fc = config.filter
+    noise = noise_profile(model, config) if noise_std is None else noise_std
+    return AnnealedParticleFilter(
+        fc.particles, fc.layers, model.low, model.high, noise, strategy=fc.strategy, rng=rng,
+        dynamics=build_dynamics(model, fc), **fc.filter_options())
+
+
+def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36) -> np.ndarray:
+    """A standing pose at the voxel blob's centroid, facing the best of ``n_yaw`` headings.
+
+    Parameters
+    ----------
+    measurement : voxelmocap.likelihood.Measurement
+        The first frame.
+    model : BodyModel
+    variances : (4,) sequence of float
+        The likelihood's σ².
+    n_yaw : int
+        Headings tried, evenly spread over the full turn.
+
+    Returns
+    -------
+    (27,) ndarray
+
+    Raises
+    ------
+    InputError
+        When the frame has no occupied voxel.
+    """
+    from .likelihood import log_likelihood
+
+    occ = measurement.occupancy
+    idx = np.argwhere(occ)
+    if len(idx) == 0:
+        raise InputError("first frame", "no occupied voxel: cannot initialise from the voxels")
+    centre = measurement.grid.centre_of(idx).mean(axis=0)
+    base = model.default_state()
+    base[0], base[1] = centre[0], centre[1]
+    yaw_i = list(model.state_names).index("root_yaw")
+    candidates = np.repeat(base[None], n_yaw, axis=0)
+    candidates[:, yaw_i] = np.linspace(-np.pi, np.pi, n_yaw, endpoint=False)
+    scores = log_likelihood(measurement, model, candidates, variances=variances)
+    return candidates[int(np.argmax(scores))]
+
+
+def ground_truth_landmarks(gt, frame: int) -> np.ndarray | None:
+    """A frame's true landmarks ``(15, 3)`` (mm) for :meth:`BodyTracker.initialise`.
+
+    Parameters
+    ----------
+    gt : voxelmocap.io.body_pose_xml.BodyPoseSequence or None
+        The sequence's ground truth.
+    frame : int
+        Synchronised frame number.
+
+    Returns
+    -------
+    (15, 3) ndarray or None
+        None when there is no ground truth, the frame is not in it, or an endpoint is disabled.
+    """
+    from .joints import endpoints_to_landmarks
+
+    if gt is None:
+        return None
+    row = int(gt.index_of([frame])[0])
+    if row < 0 or not bool(gt.enabled[row].all()):
+        return None
+    return endpoints_to_landmarks(gt.endpoints[row])
+
+
+# ---------------------------------------------------------------------------- the tracker
+class BodyTracker:
+    """Tracks one body through measured frames.
+
+    Parameters
+    ----------
+    model : BodyModel
+        The subject's body.
+    config : TrackConfig, optional
+        ``likelihood``, ``filter`` and ``init`` are used (default: the working point).
+    seed : int or numpy.random.Generator
+        The filter's random generator (or its seed).
+    noise_std : (27,) array_like, optional
+        Propagation noise per state dimension (mm, rad), instead of :func:`noise_profile` of the
+        config (for studies of other profiles).
+    observers : iterable of callable, optional
+        ``observer(record, tracker)`` called after every :meth:`step`.
+
+    Attributes
+    ----------
+    model, config, variances
+        As given (``variances = config.likelihood.variances``).
+    noise_std : (27,) ndarray
+        The propagation noise in use; the initial spread is ``config.init.spread`` times it.
+    filter : voxelmocap.tracking.AnnealedParticleFilter
+    init_method : str or None
+        How :meth:`initialise` started the track (a phrase naming the frame).
+    observers : list of callable
+    """
+
+    def __init__(self, model, config: TrackConfig | None = None, *, seed=0, noise_std=None,
+                 observers: Iterable[Observer] = ()):
+        self.model = model
+        self.config = config or TrackConfig()
+        self.variances = self.config.likelihood.variances
+        if noise_std is None:
+            self.noise_std = noise_profile(model, self.config)
+        else:
+            self.noise_std = np.asarray(noise_std, dtype=float)
+            if self.noise_std.shape != (model.n_dims,) or not np.all(
+                    np.isfinite(self.noise_std)) or np.any(self.noise_std < 0):
+                raise InputError("noise_std", f"expected {model.n_dims} finite values >= 0")
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        self.filter = build_filter(model, self.config, rng, noise_std=self.noise_std)
+        self.init_method: str | None = None
+        self.observers: list[Observer] = list(observers)
+
+    def __repr__(self) -> str:
+        return f"BodyTracker({self.model!r}, {self.filter!r})"
+
+    @property
+    def initialised(self) -> bool:
+        """Whether the filter holds particles (after :meth:`initialise` or :meth:`set_state`)."""
+        return self.filter.particles is not None
+
+    # ------------------------------------------------------------------ start
+    def initial_state(self, observation, ground_truth=None, *, frame=None) -> tuple[str, np.ndarray]:
+        """Where ``config.init.method`` starts the track: ``(phrase, (27,) state)``.
+
+        Parameters
+        ----------
+        observation : voxelmocap.likelihood.Measurement
+            The first frame.
+        ground_truth : (15, 3) array_like, optional
+            The frame's true landmarks (mm), when known and complete.
+        frame : int, optional
+            Its synchronised number, for the phrase and error messages.
+        """
+        from .body import fit_to_landmarks
+
+        method = self.config.init.method
+        which = "the first frame" if frame is None else f"frame {int(frame)}"
+        if method == "ground_truth" and ground_truth is None:
+            raise InputError("init.method", f"ground truth of {which} is not available")
+        if method == "ground_truth" or (method == "auto" and ground_truth is not None):
+            return (f"the ground truth of {which}",
+                    fit_to_landmarks(self.model, np.asarray(ground_truth, dtype=float)))
+        return (f"the voxels of {which} (centroid + yaw search)",
+                initial_state_from_voxels(observation, self.model, self.variances))
+
+    def initialise(self, observation, ground_truth=None, *, frame=None) -> str:
+        """Draw the first particles around :meth:`initial_state`; returns how it started.
+
+        The spread is ``config.init.spread`` times the propagation noise.
+        """
+        self.init_method, mean = self.initial_state(observation, ground_truth, frame=frame)
+        self.filter.initialise(mean, self.config.init.spread * self.noise_std)
+        return self.init_method
+
+    # ------------------------------------------------------------------ one frame
+    def log_likelihood(self, observation, spent: list | None = None
+                       ) -> Callable[[np.ndarray], np.ndarray]:
+        """The filter's per-frame callable: ``(P, 27)`` states → ``(P,)`` log-likelihoods.
+
+        When ``spent`` is given, its first element is increased by the seconds of every call.
+        """
+        from .likelihood import log_likelihood
+
+        model, variances = self.model, self.variances
+
+        def ll(states):
+            if spent is None:
+                return log_likelihood(observation, model, states, variances=variances)
+            t0 = time.perf_counter()
+            out = log_likelihood(observation, model, states, variances=variances)
+            spent[0] += time.perf_counter() - t0
+            return out
+
+        return ll
+
+    def step(self, observation, *, frame: int | None = None) -> FrameRecord:
+        """Track one frame and describe the estimate (then call the observers).
+
+        Parameters
+        ----------
+        observation : voxelmocap.likelihood.Measurement
+            This frame's measurement.
+        frame : int, optional
+            Its synchronised number (default: the filter's step count, 1-based).
+        """
+        from .body import joints_to_endpoints
+        from .likelihood import log_likelihood_from_scores, part_scores
+
+        if not self.initialised:
+            raise RuntimeError("BodyTracker.step: call initialise() or set_state() first")
+        t0 = time.perf_counter()
+        pf = self.filter
+        spent = [0.0]
+        est = self.model.clip(pf.step(self.log_likelihood(observation, spent))[None])
+        # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
+        # joints picked by index); the part scores run their own inside the likelihood kernel.
+        joints = self.model.forward(est).joints
+        scores = part_scores(observation, self.model, est)[0]
+        record = FrameRecord(
+            frame=int(pf.frame if frame is None else frame),
+            state=est[0],
+            map_state=np.asarray(pf.map_particle, dtype=float),
+            landmarks=joints[0],
+            endpoints=joints_to_endpoints(joints)[0],
+            part_scores=scores,
+            ess=np.asarray(pf.layer_ess, dtype=float),
+            betas=np.asarray(pf.layer_betas, dtype=float),
+            seconds=time.perf_counter() - t0,
+            log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)),
+            likelihood_seconds=spent[0],
+        )
+        for observer in self.observers:
+            observer(record, self)
+        return record
+
+    def track(self, observations: Iterable, frames: Iterable[int] | None = None,
+              ground_truth=None) -> list[FrameRecord]:
+        """Step through observations (initialising on the first when needed); the records.
+
+        ``ground_truth`` is the first frame's landmarks ``(15, 3)`` or None.
+        """
+        records = []
+        frames = iter(frames) if frames is not None else None
+        for observation in observations:
+            frame = None if frames is None else int(next(frames))
+            if not self.initialised:
+                self.initialise(observation, ground_truth, frame=frame)
+            records.append(self.step(observation, frame=frame))
+        return records
+
+    # ------------------------------------------------------------------ checkpoints
+    def get_state(self) -> dict:
+        """The filter's complete state (see ``AnnealedParticleFilter.get_state``)."""
+        return self.filter.get_state()
+
+    def set_state(self, state: dict) -> None:
+        """Restore :meth:`get_state`; stepping on then equals an uninterrupted run."""
+        self.filter.set_state(state)
