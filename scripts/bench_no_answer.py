@@ -60,14 +60,20 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--clips", help="comma-separated subset of actions")
+    parser.add_argument("--init", default="auto", choices=["auto", "extremities", "voxels"],
+                        help="init.method (auto: the ground truth with --with-answer, else "
+                             "extremities; voxels: the first method, centroid + yaw search)")
+    parser.add_argument("--body", default="voxels", choices=["voxels", "average"],
+                        help="init.body: the body's size without a body file")
+    parser.add_argument("--hypotheses", type=int, default=4, help="init.hypotheses")
     parser.add_argument("--with-answer", action="store_true",
                         help="track the original data (ground truth of frame 1, body file)")
     args = parser.parse_args()
     data, out = Path(args.data), Path(args.out)
     wanted = set(args.clips.split(",")) if args.clips else None
-    config = TrackConfig()
-    if not args.with_answer:
-        config = with_overrides(config, **{"init.method": "voxels"})
+    config = with_overrides(TrackConfig(), **{"init.method": args.init, "init.body": args.body,
+                                              "init.hypotheses": args.hypotheses})
+    tag = "with_answer" if args.with_answer else f"{args.init}_{args.body}_{args.hypotheses}"
     rows = {}
     for index, (clip, action, start) in enumerate(CLIPS):
         if wanted and action not in wanted:
@@ -83,7 +89,7 @@ def main() -> None:
                                                               out / "stripped" / subject)
         per_seed = []
         for seed in range(args.seeds):
-            run = out / ("with_answer" if args.with_answer else "no_answer") / f"seed{seed}"
+            run = out / tag / f"seed{seed}"
             t0 = time.perf_counter()
             outcome = track_sequence(source, subject, seq_name, run, config=config, seed=seed,
                                      resume=True, progress=False, log=lambda _m: None)
@@ -96,8 +102,7 @@ def main() -> None:
     allv = np.array([np.mean(v, axis=0) for v in rows.values()])
     print(f"mean over clips: μ {allv[:, 0].mean():.1f} mm, MMTA {allv[:, 1].mean():.1f} %; "
           f"worst clip μ {allv[:, 0].max():.1f} mm")
-    (out / ("with_answer.json" if args.with_answer else "no_answer.json")).write_text(
-        json.dumps(rows, indent=1))
+    (out / f"{tag}.json").write_text(json.dumps(rows, indent=1))
 
 
 if __name__ == "__main__":

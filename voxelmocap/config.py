@@ -200,10 +200,18 @@ class FilterConfig:
 class InitConfig:
     """How tracking starts."""
 
-    #: ``ground_truth``: fit the body to the first frame's ground truth; ``voxels``: search around
-    #: the voxel blob; ``auto``: ground truth when the sequence has it
-    method: str = _choice("auto", "ground_truth", "voxels", default="auto")
+    #: ``ground_truth``: fit the body to the first frame's ground truth; ``extremities``: fit
+    #: labelled hypotheses to the voxels' head, hand and foot tips and start from a mixture of
+    #: the most likely (``voxelmocap.initialise``); ``voxels``: a standing pose at the voxel
+    #: centroid, best of 36 headings (the first method, kept for comparison); ``auto``: ground
+    #: truth when the sequence has it, else ``extremities``
+    method: str = _choice("auto", "ground_truth", "extremities", "voxels", default="auto")
     spread: float = 0.25  #: initial particle spread, as a multiple of the propagation noise
+    #: ``extremities``: distinct starting poses the first particles are spread over (equal shares)
+    hypotheses: int = 4
+    #: body size when there is no body file and no ground truth: ``voxels`` scales the average
+    #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult
+    body: str = _choice("voxels", "average", default="voxels")
 
 
 @dataclass(frozen=True)
@@ -318,10 +326,11 @@ def _check_ranges(obj, prefix: str, source) -> None:
     if isinstance(obj, MeasurementConfig):
         _check_measurement(obj, prefix, source)
     positive = {"voxel_size", "surface_sigma", "layers", "particles", "translation_std_mm",
-                "rotation_std_rad", "joint_std_rad", "background_frames"}
+                "rotation_std_rad", "joint_std_rad", "background_frames", "hypotheses"}
     for name in positive:
         if hasattr(obj, name) and not getattr(obj, name) > 0:
-            raise InputError(source, f"key {prefix + '.' if prefix else ''}{name!r} must be > 0")
+            key = f"{prefix}.{name}" if prefix else name
+            raise InputError(source, f"key {key!r} must be > 0")
     if isinstance(obj, FilterConfig):
         _check_filter(obj, prefix, source)
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:

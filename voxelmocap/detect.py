@@ -161,6 +161,8 @@ def _tips(graph, idx, shape, dist, radius, min_dist, limit) -> list[int]:
     d = np.full(shape, -np.inf)
     d[tuple(idx.T)] = dist
     local = dist >= ndimage.maximum_filter(d, size=3, mode="constant", cval=-np.inf)[tuple(idx.T)]
+    if limit <= 0:
+        return []
     cands = np.flatnonzero(local & (dist >= min_dist))
     cands = cands[np.argsort(-dist[cands], kind="stable")][:_MAX_CANDIDATES]
     if len(cands) == 0:

@@ -85,6 +85,32 @@ def body_model_for(seq, gt=None):
     return BodyModel(), "average adult (no body file or ground truth)"
 
 
+#: Plausible standing heights (mm). The voxels' vertical extent is the height of a standing
+#: person; raised arms or a crouch in the first frame move it, and outside this range it is
+#: more likely that than a person of that size.
+HEIGHT_RANGE_MM = (1400.0, 2100.0)
+
+
+def _voxel_height(observation, frame) -> float:
+    """The first frame's standing height (mm) from its voxels (:mod:`voxelmocap.detect`)."""
+    from .detect import find_extremities
+
+    ex = find_extremities(observation.occupancy, observation.grid, max_extremities=0)
+    if ex is None:
+        raise InputError(f"frame {int(frame)}", "no occupied voxel: cannot measure the body "
+                                                "(is the person in view? is the background "
+                                                "model right?)")
+    return float(np.clip(ex.height_mm, *HEIGHT_RANGE_MM))
+
+
+def _sized_model(height_mm: float, frame):
+    from .body import BodyModel
+
+    where = "" if frame is None else f" of frame {int(frame)}"
+    return (BodyModel.scaled(height_mm),
+            f"average adult scaled to {height_mm:.0f} mm, the height of the voxels{where}")
+
+
 def _result_paths(out_dir: Path, seq) -> tuple[Path, Path, Path]:
     base = Path(out_dir) / seq.subject / seq.name
     return base.with_suffix(".h5"), base.with_suffix(".xml"), base.with_suffix(".bvh")
@@ -136,6 +162,9 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
     model, model_source = body_model_for(seq, gt)
+    # With neither a body file nor ground truth, the body is sized from the first frame's voxels
+    # once they are measured (init.body = "voxels"); the tracker waits for it.
+    size_from_voxels = model_source.startswith("average") and config.init.body == "voxels"
     fps = seq.frame_rate if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise InputError("fps", f"the frame rate must be a finite number > 0, got {fps!r}")
@@ -146,7 +175,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         "cameras": ",".join(seq.camera_names), "body_model": model_source,
         "frames_requested": ",".join(str(int(f)) for f in selected), "frame_rate": fps,
     }
-    tracker = BodyTracker(model, config, seed=seed)
+    tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
     # Locks an existing result for the whole run (refused while another run writes it).
     with ResultWriter(result_path) as writer:
         previous = _previous_run(writer, meta, resume, overwrite)
@@ -161,6 +190,12 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         resumed_from = 0 if previous is None else len(previous)
         init_method = None
         if resumed_from:
+            if tracker is None:  # the height measured by the interrupted run, as it used it
+                height = float(previous.attrs["body_height_mm"])
+                model, model_source = _sized_model(height, None)
+                meta["body_model"] = model_source = str(previous.attrs["body_model"])
+                meta["body_height_mm"] = height
+                tracker = BodyTracker(model, config, seed=seed)
             tracker.set_state(previous.checkpoint)
             init_method = str(previous.attrs.get("init_method"))
             log(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
@@ -187,6 +222,13 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
             for frame_number, images in seq.frames(selected[resumed_from:]):
                 t0 = time.perf_counter()
                 measurement = stage.measure(images, frame=frame_number)
+                if tracker is None:
+                    model, model_source = _sized_model(_voxel_height(measurement, frame_number),
+                                                       frame_number)
+                    meta["body_model"] = model_source
+                    meta["body_height_mm"] = float(model.dimensions.height)
+                    log(f"body: {model_source}")
+                    tracker = BodyTracker(model, config, seed=seed)
                 if not tracker.initialised:
                     init_method = tracker.initialise(
                         measurement, ground_truth_landmarks(gt, frame_number), frame=frame_number)

@@ -314,7 +314,9 @@ class BodyTracker:
 
     # ------------------------------------------------------------------ start
     def initial_state(self, observation, ground_truth=None, *, frame=None) -> tuple[str, np.ndarray]:
-        """Where ``config.init.method`` starts the track: ``(phrase, (27,) state)``.
+        """Where ``config.init.method`` starts the track: ``(phrase, state)``.
+
+        ``state`` is (27,), or (K, 27) starting poses for a mixture (``extremities``, best first).
 
         Parameters
         ----------
@@ -334,8 +336,19 @@ class BodyTracker:
         if method == "ground_truth" or (method == "auto" and ground_truth is not None):
             return (f"the ground truth of {which}",
                     fit_to_landmarks(self.model, np.asarray(ground_truth, dtype=float)))
-        return (f"the voxels of {which} (centroid + yaw search)",
-                initial_state_from_voxels(observation, self.model, self.variances))
+        if method == "voxels":
+            return (f"the voxels of {which} (centroid + yaw search)",
+                    initial_state_from_voxels(observation, self.model, self.variances))
+        from .detect import find_extremities
+        from .initialise import initial_pose
+
+        ex = find_extremities(observation.occupancy, observation.grid)
+        if ex is None:
+            raise InputError(which, "no occupied voxel: cannot initialise from the voxels (is "
+                                    "the person in view? is the background model right?)")
+        states, how = initial_pose(ex, self.model, self.log_likelihood(observation),
+                                   n_best=self.config.init.hypotheses)
+        return f"the voxels of {which}: {how}", states
 
     def initialise(self, observation, ground_truth=None, *, frame=None) -> str:
         """Draw the first particles around :meth:`initial_state`; returns how it started.

@@ -159,3 +159,22 @@ def test_seeds_are_valid(tmp_path, reader, seed):
         (tmp_path / "x.asf").write_bytes(ASF)
         (tmp_path / "x.amc").write_bytes(AMC)
         assert read_asf_amc(tmp_path / "x.asf", tmp_path / "x.amc").n_frames == 2
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_result_hdf5(tmp_path_factory, data):
+    # A valid streamed result file, then arbitrary bytes or byte-level damage to it: HDF5's own
+    # checks, h5py's and the reader's must together turn every damage into one InputError.
+    from test_results import make_result
+
+    from voxelmocap.io.results import read_result, write_result
+
+    folder = tmp_path_factory.mktemp("h5")
+    seed_path = folder / "seed.h5"
+    write_result(seed_path, make_result())
+    raw = data.draw(st.one_of(st.binary(max_size=400), mutated(seed_path.read_bytes())))
+    path = folder / "x.h5"
+    path.write_bytes(raw)
+    _check(path, lambda: read_result(path))

@@ -461,13 +461,18 @@ _H5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
 
 
 def _open(path: Path) -> h5py.File:
-    try:
-        # SWMR-read mode also opens a file whose writer is running or was killed.
-        return h5py.File(path, "r", swmr=True, locking=_LOCKING)
-    except _H5_ERRORS as exc:
-        first = exc
+    # A plain read first: in SWMR-read mode HDF5 retries every metadata read whose checksum
+    # fails (up to 100 times, with growing sleeps, in case the writer was mid-write), so a
+    # damaged file took minutes to refuse (found by fuzzing). Only a file whose writer is
+    # running or was killed needs SWMR-read (plain opening refuses its superblock flags).
     try:
         return h5py.File(path, "r", locking=_LOCKING)
+    except _H5_ERRORS as exc:
+        first = exc
+    if "already open for" not in str(first):  # not a writer's flags: damaged, or not HDF5
+        raise InputError(path, f"cannot read HDF5 result file ({first})") from None
+    try:
+        return h5py.File(path, "r", swmr=True, locking=_LOCKING)
     except _H5_ERRORS:
         raise InputError(path, f"cannot read HDF5 result file ({first})") from None
 
