@@ -287,3 +287,58 @@ def test_first_frame_compilation_is_announced(walk_dataset, tmp_path, monkeypatc
     assert pipeline._kernels_cached()
     monkeypatch.setattr(_raster_kernels, "part_counts", object())  # numba changed: stay quiet
     assert pipeline._kernels_cached()
+
+
+@pytest.fixture(scope="module")
+def walk_without_answer(walk_dataset, tmp_path_factory):
+    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links, not copies)."""
+    import os
+
+    root = tmp_path_factory.mktemp("noanswer")
+    for path in walk_dataset.rglob("*"):
+        rel = path.relative_to(walk_dataset)
+        if "Mocap_Data" in rel.parts:
+            continue
+        if path.is_dir():
+            (root / rel).mkdir(parents=True, exist_ok=True)
+        else:
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(path, root / rel)
+    return root
+
+
+def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_answer, tmp_path,
+                                                  monkeypatch):
+    from voxelmocap.io.body_file import read_body_file
+    from voxelmocap.io.results import ResultWriter
+
+    kwargs = dict(config=SMALL, frames="1:6", seed=2, progress=False, log=lambda *_: None)
+    full = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "full", **kwargs)
+    assert "extremities fit" in full.init_method or "standing pose" in full.init_method
+    result = read_result(full.result_path)
+    truth = read_body_file(walk_dataset / "S1" / "Mocap_Data" / "S1_body.toml").height
+    # The voxels' height is the rendered person's (voxel-quantised, 20 mm; shoes, hair).
+    assert abs(result.attrs["body_height_mm"] - truth) < 0.05 * truth
+    assert "scaled to" in result.attrs["body_model"]
+    (seq,) = evaluate_files(tmp_path / "full", walk_dataset)
+    assert seq.scores.mu_mm < 200.0  # a lost track is > 300 mm
+    # Interrupted after two frames and resumed: the body measured by the first run is reused.
+    real_append = ResultWriter.append
+    calls = {"n": 0}
+
+    def interrupted(self, *args, **kw):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        real_append(self, *args, **kw)
+
+    monkeypatch.setattr(ResultWriter, "append", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part", **kwargs)
+    monkeypatch.setattr(ResultWriter, "append", real_append)
+    resumed = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part",
+                             resume=True, **kwargs)
+    assert resumed.resumed_from == 2
+    b = read_result(resumed.result_path)
+    np.testing.assert_array_equal(result.state, b.state)
+    assert b.attrs["body_height_mm"] == result.attrs["body_height_mm"]
