@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fuzzing import mutated
 from humaneva_fixture import make_tiny_dataset
 from humaneva_mocap_fixture import (
     LABELS,
@@ -153,21 +154,6 @@ def test_groundtruth_without_raw_mocap_exits_2(tmp_path, capsys):
 
 
 # ---------------------------------------------------------------------- fuzzing
-@st.composite
-def mutated(draw, seed: bytes):
-    data = bytearray(seed)
-    for _ in range(draw(st.integers(1, 6))):
-        op = draw(st.sampled_from(["flip", "insert", "delete", "truncate"]))
-        pos = draw(st.integers(0, max(len(data) - 1, 0)))
-        if op == "flip" and data:
-            data[pos] = draw(st.integers(0, 255))
-        elif op == "insert":
-            data[pos:pos] = draw(st.binary(min_size=1, max_size=8))
-        elif op == "delete":
-            del data[pos:pos + draw(st.integers(1, 16))]
-        else:
-            del data[pos:]
-    return bytes(data)
 
 
 def _seed(compress: bool) -> bytes:
