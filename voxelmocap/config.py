@@ -209,6 +209,9 @@ class InitConfig:
     spread: float = 0.25  #: initial particle spread, as a multiple of the propagation noise
     #: ``extremities``: distinct starting poses the first particles are spread over (equal shares)
     hypotheses: int = 4
+    #: ``extremities``: improve the 12 best distinct candidates on the likelihood before choosing
+    #: (3 rounds × 64 perturbations at twice the propagation noise, halved every round)
+    refine: bool = False
     #: body size when there is no body file and no ground truth: ``voxels`` scales the average
     #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult
     body: str = _choice("voxels", "average", default="voxels")

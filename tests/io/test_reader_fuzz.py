@@ -164,3 +164,47 @@ def test_result_hdf5(tmp_path_factory, data):
     path = folder / "x.h5"
     path.write_bytes(raw)
     _check(path, lambda: read_result(path))
+
+
+def _calibration_seeds(folder):
+    """Valid ``.cal``, ``sizes.toml``, anipose/Pose2Sim TOML and ``.ofs`` files, as bytes."""
+    from humaneva_fixture import RIG_DIR
+
+    from voxelmocap.io.calibration import read_rig, write_calibration_toml, write_rig
+    from voxelmocap.io.humaneva import write_ofs
+
+    rig = read_rig(RIG_DIR, names=["C1", "BW1"])
+    write_rig(rig, folder / "rig")
+    write_calibration_toml(rig, folder / "calib.toml")
+    write_ofs(folder / "x.ofs", 6, 1, 2.0)
+    return {"cal": (folder / "rig" / "C1.cal").read_bytes(),
+            "sizes": (folder / "rig" / "sizes.toml").read_bytes(),
+            "toml": (folder / "calib.toml").read_bytes(),
+            "ofs": (folder / "x.ofs").read_bytes()}
+
+
+@FUZZ
+@given(data=st.data(), kind=st.sampled_from(["cal", "sizes", "toml", "ofs"]))
+def test_calibration_and_sync_files(tmp_path_factory, data, kind):
+    from voxelmocap.io.calibration import read_cal, read_calibration_toml, read_sizes
+    from voxelmocap.io.humaneva import read_ofs
+
+    folder = tmp_path_factory.mktemp("calib")
+    seeds = _calibration_seeds(folder)
+    raw = data.draw(st.one_of(st.binary(max_size=300), mutated(seeds[kind])))
+    path = folder / {"cal": "x.cal", "sizes": "sizes.toml", "toml": "c.toml", "ofs": "y.ofs"}[kind]
+    path.write_bytes(raw)
+    reader = {"cal": read_cal, "sizes": read_sizes, "toml": read_calibration_toml,
+              "ofs": read_ofs}[kind]
+    _check(path, lambda: reader(path))
+
+
+def test_calibration_seeds_are_valid(tmp_path):
+    from voxelmocap.io.calibration import read_cal, read_calibration_toml, read_sizes
+    from voxelmocap.io.humaneva import read_ofs
+
+    seeds = _calibration_seeds(tmp_path)
+    for kind, name, reader in (("cal", "a.cal", read_cal), ("sizes", "sizes.toml", read_sizes),
+                               ("toml", "b.toml", read_calibration_toml), ("ofs", "c.ofs", read_ofs)):
+        (tmp_path / name).write_bytes(seeds[kind])
+        assert reader(tmp_path / name) is not None
