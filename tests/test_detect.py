@@ -124,3 +124,14 @@ def test_empty_and_bad_input():
     assert find_extremities(np.zeros((8, 8, 8), bool), grid) is None
     with pytest.raises(InputError, match="does not match the grid"):
         find_extremities(np.zeros((8, 8, 7), bool), grid)
+
+
+def test_height_ignores_a_raised_arm(body_grid):
+    model, grid = body_grid
+    names = list(model.state_names)
+    x = model.default_state()
+    standing = find_extremities(_occupancy(model, x, grid), grid)
+    x[names.index("r_shoulder_flex")] = 3.0  # the right arm straight up
+    waving = find_extremities(_occupancy(model, x, grid), grid)
+    assert waving.extent_mm > standing.extent_mm + 200.0  # the hand is far above the head
+    assert waving.height_mm == standing.height_mm

@@ -67,10 +67,23 @@ class Extremities:
     low: np.ndarray
     high: np.ndarray
 
+    #: Top (mm) of the voxels within ``axis_radius_mm`` of the vertical through the centre.
+    axis_top: float = float("nan")
+
+    @property
+    def extent_mm(self) -> float:
+        """Vertical extent of the component (mm), raised hands included."""
+        return float(self.high[2] - self.low[2])
+
     @property
     def height_mm(self) -> float:
-        """Vertical extent of the component (mm): a standing person's height, voxel-quantised."""
-        return float(self.high[2] - self.low[2])
+        """A standing person's height (mm): from the lowest voxel to the top of the trunk's axis.
+
+        The axis top is the head when it is above the trunk; a hand raised above the head is off
+        that axis and does not count (the vertical extent would: +260 mm on a waving clip).
+        """
+        top = self.axis_top if np.isfinite(self.axis_top) else float(self.high[2])
+        return float(top - self.low[2])
 
 
 def largest_component(occupancy) -> np.ndarray:
@@ -187,7 +200,8 @@ _MAX_CANDIDATES = 400
 
 def find_extremities(occupancy, grid: VoxelGrid, *, max_extremities: int = 7,
                      min_geodesic_mm: float = 250.0, tip_radius_mm: float = 150.0,
-                     bridge_mm: float = 150.0, min_piece_voxels: int = 8) -> Extremities | None:
+                     bridge_mm: float = 150.0, min_piece_voxels: int = 8,
+                     axis_radius_mm: float = 150.0) -> Extremities | None:
     """Head, hands and feet candidates: the accumulated geodesic extrema of the voxels.
 
     Parameters
@@ -209,6 +223,9 @@ def find_extremities(occupancy, grid: VoxelGrid, *, max_extremities: int = 7,
         belong to it (a limb cut off by a segmentation hole).
     min_piece_voxels : int
         Smaller pieces are noise and ignored.
+    axis_radius_mm : float
+        Radius of the vertical cylinder around the centre whose top gives
+        :attr:`Extremities.height_mm`.
 
     Returns
     -------
@@ -240,11 +257,16 @@ def find_extremities(occupancy, grid: VoxelGrid, *, max_extremities: int = 7,
                   min_geodesic_mm / vs, max_extremities)
     idx = idx + box_lo  # back to grid indices
     lo_idx, hi_idx = idx.min(axis=0), idx.max(axis=0) + 1
+    centre = grid.centre_of(idx[centre_id])
+    heights = grid.centre_of(idx)
+    on_axis = np.hypot(heights[:, 0] - centre[0], heights[:, 1] - centre[1]) <= axis_radius_mm
+    axis_top = float(heights[on_axis, 2].max() + vs / 2)  # the centre itself is on the axis
     return Extremities(
-        centre=grid.centre_of(idx[centre_id]),
+        centre=centre,
         points=grid.centre_of(idx[found]).reshape(-1, 3),
         geodesic_mm=from_centre[found] * vs,
         n_voxels=n,
         low=grid.low + lo_idx * vs,
         high=grid.low + hi_idx * vs,
+        axis_top=axis_top,
     )
