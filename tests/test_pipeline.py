@@ -342,3 +342,37 @@ def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_ans
     b = read_result(resumed.result_path)
     np.testing.assert_array_equal(result.state, b.state)
     assert b.attrs["body_height_mm"] == result.attrs["body_height_mm"]
+
+
+def test_multistart_keeps_the_likeliest_start(walk_without_answer, tmp_path):
+    from voxelmocap.body import BodyModel
+    from voxelmocap.likelihood import Measurement, rasterise
+    from voxelmocap.tracker import BodyTracker, MultiStart
+
+    # Unit level: each start is an independent tracker; the kept one is the likeliest and its
+    # records equal a lone tracker started from the same pose with the same random stream.
+    from voxelmocap.grid import VoxelGrid
+
+    model = BodyModel()
+    grid = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
+    truth = model.default_state()
+    obs = Measurement(rasterise(model, truth[None], grid) > 0, grid)
+    wrong = truth.copy()
+    wrong[0] += 300.0  # 30 cm off: clearly less likely
+    states = np.array([wrong, truth])
+    multi = MultiStart(model, SMALL, 5, states, 3)
+    assert multi.step(obs, frame=1) is None and multi.step(obs, frame=2) is None
+    records = multi.step(obs, frame=3)
+    assert multi.chosen == 1 and len(records) == 3
+    lone = BodyTracker(model, SMALL, seed=np.random.default_rng([5, 1]))
+    lone.start("truth", truth)
+    for k in range(3):
+        np.testing.assert_array_equal(lone.step(obs, frame=k + 1).state, records[k].state)
+    # Pipeline level: the buffered first frames are written, then tracking goes on and resumes.
+    config = with_overrides(SMALL, **{"init.multistart_frames": 3})
+    kwargs = dict(config=config, frames="1:6", seed=2, progress=False, log=lambda *_: None)
+    out = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "run", **kwargs)
+    assert "likeliest of" in out.init_method
+    result = read_result(out.result_path)
+    np.testing.assert_array_equal(result.frames, np.arange(1, 7))
+    assert result.checkpoint is not None and result.attrs["complete"]

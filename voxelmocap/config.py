@@ -212,6 +212,9 @@ class InitConfig:
     #: ``extremities``: improve the 12 best distinct candidates on the likelihood before choosing
     #: (3 rounds × 64 perturbations at twice the propagation noise, halved every round)
     refine: bool = False
+    #: ``extremities``: track each starting pose on its own for this many frames and keep the
+    #: likeliest (``tracker.MultiStart``); 0 starts one filter from their mixture
+    multistart_frames: int = 0
     #: body size when there is no body file and no ground truth: ``voxels`` scales the average
     #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult
     body: str = _choice("voxels", "average", default="voxels")

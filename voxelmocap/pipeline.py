@@ -33,7 +33,13 @@ from .frames import parse_frame_range
 from .measurement_runner import MeasurementRunner  # re-export: it lived here
 
 # Back-compatible names: the tracker owns the noise profile, the filter and the initialisation.
-from .tracker import BodyTracker, build_filter, ground_truth_landmarks, initial_state_from_voxels
+from .tracker import (
+    BodyTracker,
+    MultiStart,
+    build_filter,
+    ground_truth_landmarks,
+    initial_state_from_voxels,
+)
 from .tracker import noise_profile as noise_std
 
 __all__ = [
@@ -218,6 +224,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         if not _kernels_cached():
             log("compiling the likelihood kernels (first run only, ~20 s)…")
         bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
+        starts = None  # a MultiStart while its first frames run
         try:
             for frame_number, images in seq.frames(selected[resumed_from:]):
                 t0 = time.perf_counter()
@@ -229,26 +236,39 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                     meta["body_height_mm"] = float(model.dimensions.height)
                     log(f"body: {model_source}")
                     tracker = BodyTracker(model, config, seed=seed)
-                if not tracker.initialised:
-                    init_method = tracker.initialise(
+                if not tracker.initialised and starts is None:
+                    init_method, states = tracker.initial_state(
                         measurement, ground_truth_landmarks(gt, frame_number), frame=frame_number)
+                    n_multi = config.init.multistart_frames
+                    if n_multi > 0 and np.ndim(states) == 2 and len(states) > 1:
+                        starts = MultiStart(model, config, seed, states, n_multi)
+                    else:
+                        tracker.start(init_method, states)
                     log(f"initialised from {init_method}")
-                record = tracker.step(measurement, frame=frame_number)
-                # The file's seconds are the whole frame's: measurement, start and filter.
-                record = dataclasses.replace(record, seconds=time.perf_counter() - t0)
-                if not writer.started:
-                    writer.start(record, attrs=dict(meta, init_method=init_method),
-                                 state_names=model.state_names, part_names=model.part_names,
-                                 previous=previous, replace=resume or overwrite)
-                for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
-                                   ("seconds", record.seconds)):
-                    done[key].append(value)
-                writer.append(record, tracker.get_state(),
-                              complete=len(done["frames"]) == len(selected))
-                if bar is not None:
-                    bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
-                                    fps=f"{1.0 / max(record.seconds, 1e-9):.2f}")
-                    bar.update(1)
+                if starts is not None:
+                    # Nothing is written until the start is chosen: a run killed before that
+                    # simply starts again.
+                    records = starts.step(measurement, frame=frame_number)
+                    if bar is not None:
+                        bar.update(1)
+                    if records is None:
+                        continue
+                    init_method += (f"; the likeliest of {len(starts.trackers)} starts after "
+                                    f"{len(records)} frames")
+                    tracker, starts = _chosen(starts, log), None
+                else:
+                    # The file's seconds are the whole frame's: measurement, start and filter.
+                    record = tracker.step(measurement, frame=frame_number)
+                    records = [dataclasses.replace(record, seconds=time.perf_counter() - t0)]
+                    if bar is not None:
+                        bar.update(1)
+                _append(writer, records, tracker, done, len(selected), previous,
+                        dict(meta, init_method=init_method), model, resume or overwrite, bar)
+            if starts is not None:  # the sequence ended before the start was chosen
+                tracker = _chosen(starts, log)
+                _append(writer, starts.records[starts.chosen], tracker, done, len(selected),
+                        previous, dict(meta, init_method=init_method), model,
+                        resume or overwrite, bar)
         finally:
             if bar is not None:
                 bar.close()
@@ -257,6 +277,33 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps)
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
                         resumed_from, float(np.mean(done["seconds"])))
+
+
+def _chosen(starts, log) -> BodyTracker:
+    starts.finish()
+    totals = [sum(r.log_likelihood for r in rec) for rec in starts.records]
+    log(f"kept start {starts.chosen + 1} of {len(starts.trackers)} after "
+        f"{len(starts.records[0])} frames (summed log-likelihoods "
+        f"{', '.join(f'{t:.1f}' for t in totals)})")
+    return starts.tracker
+
+
+def _append(writer, records, tracker, done, n_selected, previous, attrs, model, replace,
+            bar) -> None:
+    """Write records (the last with the tracker's checkpoint; earlier ones have none)."""
+    for i, record in enumerate(records):
+        if not writer.started:
+            writer.start(record, attrs=attrs, state_names=model.state_names,
+                         part_names=model.part_names, previous=previous, replace=replace)
+        for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
+                           ("seconds", record.seconds)):
+            done[key].append(value)
+        last = i == len(records) - 1
+        writer.append(record, tracker.get_state() if last else None,
+                      complete=len(done["frames"]) == n_selected)
+    if bar is not None:
+        bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
+                        fps=f"{1.0 / max(records[-1].seconds, 1e-9):.2f}")
 
 
 def _select_frames(seq, gt, frames: str | None) -> np.ndarray:

@@ -356,9 +356,14 @@ class BodyTracker:
 
         The spread is ``config.init.spread`` times the propagation noise.
         """
-        self.init_method, mean = self.initial_state(observation, ground_truth, frame=frame)
+        phrase, mean = self.initial_state(observation, ground_truth, frame=frame)
+        return self.start(phrase, mean)
+
+    def start(self, phrase: str, mean) -> str:
+        """Draw the first particles around ``mean`` ((27,) or (K, 27) for a mixture)."""
+        self.init_method = phrase
         self.filter.initialise(mean, self.config.init.spread * self.noise_std)
-        return self.init_method
+        return phrase
 
     # ------------------------------------------------------------------ one frame
     def log_likelihood(self, observation, spent: list | None = None
@@ -444,3 +449,58 @@ class BodyTracker:
     def set_state(self, state: dict) -> None:
         """Restore :meth:`get_state`; stepping on then equals an uninterrupted run."""
         self.filter.set_state(state)
+
+
+class MultiStart:
+    """Several starting poses tracked side by side for the first frames; the likeliest goes on.
+
+    Within one frame the annealing collapses a mixture of starting poses onto whichever scores
+    best on that frame, and far from the truth a mirrored pose (facing the other way) scores
+    about as well as the right one. Tracking each start separately for a few frames lets the
+    motion tell them apart: the start whose summed log-likelihood over those frames is highest
+    is kept, with the records of its first frames.
+
+    Parameters
+    ----------
+    model : BodyModel
+    config : TrackConfig
+    seed : int
+        Start ``k`` uses ``numpy.random.default_rng([seed, k])``.
+    states : (K, 27) array_like
+        The starting poses.
+    frames : int
+        Frames to track before choosing.
+    noise_std : (27,) array_like, optional
+        As for :class:`BodyTracker`.
+    """
+
+    def __init__(self, model, config: TrackConfig, seed: int, states, frames: int, *,
+                 noise_std=None):
+        self.frames = int(frames)
+        self.trackers: list[BodyTracker] = []
+        for k, state in enumerate(np.atleast_2d(np.asarray(states, dtype=float))):
+            tracker = BodyTracker(model, config, seed=np.random.default_rng([int(seed), k]),
+                                  noise_std=noise_std)
+            tracker.filter.initialise(state, config.init.spread * tracker.noise_std)
+            self.trackers.append(tracker)
+        self.records: list[list[FrameRecord]] = [[] for _ in self.trackers]
+        self.chosen: int | None = None
+
+    def step(self, observation, *, frame: int | None = None) -> list[FrameRecord] | None:
+        """Step every start; after ``frames`` frames, the chosen start's records (else None)."""
+        for tracker, records in zip(self.trackers, self.records, strict=True):
+            records.append(tracker.step(observation, frame=frame))
+        return self.finish() if len(self.records[0]) >= self.frames else None
+
+    def finish(self) -> list[FrameRecord]:
+        """Choose now (e.g. the sequence ended early): the records of the likeliest start."""
+        totals = [sum(r.log_likelihood for r in records) for records in self.records]
+        self.chosen = int(np.argmax(totals))
+        return self.records[self.chosen]
+
+    @property
+    def tracker(self) -> BodyTracker:
+        """The chosen start's tracker (after :meth:`finish`)."""
+        if self.chosen is None:
+            raise RuntimeError("MultiStart.tracker: no start chosen yet")
+        return self.trackers[self.chosen]
