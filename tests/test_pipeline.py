@@ -346,12 +346,12 @@ def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_ans
 
 def test_multistart_keeps_the_likeliest_start(walk_without_answer, tmp_path):
     from voxelmocap.body import BodyModel
-    from voxelmocap.likelihood import Measurement, rasterise
-    from voxelmocap.tracker import BodyTracker, MultiStart
 
     # Unit level: each start is an independent tracker; the kept one is the likeliest and its
     # records equal a lone tracker started from the same pose with the same random stream.
     from voxelmocap.grid import VoxelGrid
+    from voxelmocap.likelihood import Measurement, rasterise
+    from voxelmocap.tracker import BodyTracker, MultiStart
 
     model = BodyModel()
     grid = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
