@@ -66,7 +66,6 @@ def main() -> None:
     parser.add_argument("--body", default="voxels", choices=["voxels", "average"],
                         help="init.body: the body's size without a body file")
     parser.add_argument("--hypotheses", type=int, default=4, help="init.hypotheses")
-    parser.add_argument("--refine", action="store_true", help="init.refine")
     parser.add_argument("--multistart", type=int, default=0, help="init.multistart_frames")
     parser.add_argument("--with-answer", action="store_true",
                         help="track the original data (ground truth of frame 1, body file)")
@@ -75,10 +74,9 @@ def main() -> None:
     wanted = set(args.clips.split(",")) if args.clips else None
     config = with_overrides(TrackConfig(), **{"init.method": args.init, "init.body": args.body,
                                               "init.hypotheses": args.hypotheses,
-                                              "init.refine": args.refine,
                                               "init.multistart_frames": args.multistart})
     tag = "with_answer" if args.with_answer else \
-        f"{args.init}_{args.body}_{args.hypotheses}{'_refined' if args.refine else ''}" \
+        f"{args.init}_{args.body}_{args.hypotheses}" \
         f"{f'_multi{args.multistart}' if args.multistart else ''}"
     rows = {}
     for index, (clip, action, start) in enumerate(CLIPS):

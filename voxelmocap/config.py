@@ -209,9 +209,6 @@ class InitConfig:
     spread: float = 0.25  #: initial particle spread, as a multiple of the propagation noise
     #: ``extremities``: distinct starting poses the first particles are spread over (equal shares)
     hypotheses: int = 4
-    #: ``extremities``: improve the 12 best distinct candidates on the likelihood before choosing
-    #: (3 rounds × 64 perturbations at twice the propagation noise, halved every round)
-    refine: bool = False
     #: ``extremities``: track each starting pose on its own for this many frames and keep the
     #: likeliest (``tracker.MultiStart``); 0 starts one filter from their mixture
     multistart_frames: int = 0

@@ -346,9 +346,8 @@ class BodyTracker:
         if ex is None:
             raise InputError(which, "no occupied voxel: cannot initialise from the voxels (is "
                                     "the person in view? is the background model right?)")
-        refine_std = 2.0 * self.noise_std if self.config.init.refine else None
         states, how = initial_pose(ex, self.model, self.log_likelihood(observation),
-                                   n_best=self.config.init.hypotheses, refine_std=refine_std)
+                                   n_best=self.config.init.hypotheses)
         return f"the voxels of {which}: {how}", states
 
     def initialise(self, observation, ground_truth=None, *, frame=None) -> str:
