@@ -255,20 +255,24 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         continue
                     init_method += (f"; the likeliest of {len(starts.trackers)} starts after "
                                     f"{len(records)} frames")
-                    tracker, starts = _chosen(starts, log), None
+                    tracker = _chosen(starts, log)
+                    checkpoints, starts = starts.checkpoints[starts.chosen], None
                 else:
                     # The file's seconds are the whole frame's: measurement, start and filter.
                     record = tracker.step(measurement, frame=frame_number)
                     records = [dataclasses.replace(record, seconds=time.perf_counter() - t0)]
+                    checkpoints = [None]
                     if bar is not None:
                         bar.update(1)
-                _append(writer, records, tracker, done, len(selected), previous,
+                _append(writer, records, checkpoints, tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
             if starts is not None:  # the sequence ended before the start was chosen
                 tracker = _chosen(starts, log)
-                _append(writer, starts.records[starts.chosen], tracker, done, len(selected),
-                        previous, dict(meta, init_method=init_method), model,
-                        resume or overwrite, bar)
+                init_method += (f"; the likeliest of {len(starts.trackers)} starts after "
+                                f"{len(starts.records[0])} frames")
+                _append(writer, starts.records[starts.chosen], starts.checkpoints[starts.chosen],
+                        tracker, done, len(selected), previous,
+                        dict(meta, init_method=init_method), model, resume or overwrite, bar)
         finally:
             if bar is not None:
                 bar.close()
@@ -288,18 +292,17 @@ def _chosen(starts, log) -> BodyTracker:
     return starts.tracker
 
 
-def _append(writer, records, tracker, done, n_selected, previous, attrs, model, replace,
-            bar) -> None:
-    """Write records (the last with the tracker's checkpoint; earlier ones have none)."""
-    for i, record in enumerate(records):
+def _append(writer, records, checkpoints, tracker, done, n_selected, previous, attrs, model,
+            replace, bar) -> None:
+    """Write records, each with the filter state after its frame (None: the tracker's now)."""
+    for record, checkpoint in zip(records, checkpoints, strict=True):
         if not writer.started:
             writer.start(record, attrs=attrs, state_names=model.state_names,
                          part_names=model.part_names, previous=previous, replace=replace)
         for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
                            ("seconds", record.seconds)):
             done[key].append(value)
-        last = i == len(records) - 1
-        writer.append(record, tracker.get_state() if last else None,
+        writer.append(record, tracker.get_state() if checkpoint is None else checkpoint,
                       complete=len(done["frames"]) == n_selected)
     if bar is not None:
         bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",

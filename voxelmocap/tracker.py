@@ -483,12 +483,17 @@ class MultiStart:
             tracker.filter.initialise(state, config.init.spread * tracker.noise_std)
             self.trackers.append(tracker)
         self.records: list[list[FrameRecord]] = [[] for _ in self.trackers]
+        #: each start's filter state after each frame, so that the kept start's frames can be
+        #: written with their checkpoints (a run killed while writing them resumes exactly)
+        self.checkpoints: list[list[dict]] = [[] for _ in self.trackers]
         self.chosen: int | None = None
 
     def step(self, observation, *, frame: int | None = None) -> list[FrameRecord] | None:
         """Step every start; after ``frames`` frames, the chosen start's records (else None)."""
-        for tracker, records in zip(self.trackers, self.records, strict=True):
+        for tracker, records, states in zip(self.trackers, self.records, self.checkpoints,
+                                            strict=True):
             records.append(tracker.step(observation, frame=frame))
+            states.append(tracker.get_state())
         return self.finish() if len(self.records[0]) >= self.frames else None
 
     def finish(self) -> list[FrameRecord]:
