@@ -66,7 +66,8 @@ def main() -> None:
     parser.add_argument("--body", default="voxels", choices=["voxels", "average"],
                         help="init.body: the body's size without a body file")
     parser.add_argument("--hypotheses", type=int, default=4, help="init.hypotheses")
-    parser.add_argument("--multistart", type=int, default=0, help="init.multistart_frames")
+    parser.add_argument("--multistart", type=int, default=None,
+                        help="init.multistart_frames (default: the config's, 10)")
     parser.add_argument("--with-answer", action="store_true",
                         help="track the original data (ground truth of frame 1, body file)")
     args = parser.parse_args()
@@ -77,7 +78,7 @@ def main() -> None:
                                               "init.multistart_frames": args.multistart})
     tag = "with_answer" if args.with_answer else \
         f"{args.init}_{args.body}_{args.hypotheses}" \
-        f"{f'_multi{args.multistart}' if args.multistart else ''}"
+        f"{'' if args.multistart is None else f'_multi{args.multistart}'}"
     rows = {}
     for index, (clip, action, start) in enumerate(CLIPS):
         if wanted and action not in wanted:
