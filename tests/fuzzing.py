@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from hypothesis import strategies as st
 
+from voxelmocap.errors import InputError
+
 
 @st.composite
 def mutated(draw, seed: bytes):
@@ -21,3 +23,14 @@ def mutated(draw, seed: bytes):
         else:
             del data[pos:]
     return bytes(data)
+
+
+def check_parses_or_one_line(path, call) -> None:
+    """``call()`` returns, or raises :class:`InputError` naming ``path`` in one line; any other
+    exception propagates (it would reach a user as a traceback) and fails the test."""
+    try:
+        call()
+    except InputError as exc:
+        message = str(exc)
+        assert message.startswith(str(path)), message
+        assert "\n" not in message, message

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fuzzing import check_parses_or_one_line as _check
 from fuzzing import mutated
 from humaneva_fixture import make_tiny_dataset
 from humaneva_mocap_fixture import (
@@ -172,13 +173,6 @@ FUZZ = settings(max_examples=120, deadline=None,
                                        HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
-def _check(path, call):
-    try:
-        call()
-    except InputError as exc:
-        message = str(exc)
-        assert message.startswith(str(path)), message
-        assert "\n" not in message, message
 
 
 def test_seeds_are_valid(tmp_path):

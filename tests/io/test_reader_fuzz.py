@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fuzzing import check_parses_or_one_line as _check
 from fuzzing import mutated
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -87,13 +88,6 @@ def _xml_seed(tmp_path_factory) -> bytes:
 
 
 
-def _check(path, call):
-    try:
-        call()
-    except InputError as exc:
-        message = str(exc)
-        assert message.startswith(str(path)), message
-        assert "\n" not in message, message
 
 
 FUZZ = settings(max_examples=120, deadline=None,

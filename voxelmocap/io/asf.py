@@ -79,6 +79,8 @@ def _parse_asf(path: Path):
             section = tok[0][1:].lower()
             continue
         key = tok[0].lower()
+        if key in ("angle", "axis", "name") and len(tok) < 2:
+            raise InputError(path, f"line {lineno}: {key!r} needs a value")
         if section == "units":
             if key == "length":
                 length_unit = _floats(tok[1:2], path, lineno, 1)[0]
