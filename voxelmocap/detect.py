@@ -35,7 +35,7 @@ from scipy.sparse import csgraph
 from .errors import InputError
 from .grid import VoxelGrid
 
-__all__ = ["Extremities", "find_extremities", "largest_component"]
+__all__ = ["Extremities", "find_extremities"]
 
 #: The 13 neighbour offsets of a 26-neighbourhood that point "forward" (each edge once).
 _OFFSETS = np.array([(di, dj, dk) for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
@@ -86,17 +86,6 @@ class Extremities:
         return float(top - self.low[2])
 
 
-def largest_component(occupancy) -> np.ndarray:
-    """``(nx, ny, nz)`` bool: the largest 26-connected component of ``occupancy`` (all False if empty)."""
-    occ = np.asarray(occupancy, dtype=bool)
-    labels, n = ndimage.label(occ, structure=np.ones((3, 3, 3), dtype=bool))
-    if n == 0:
-        return np.zeros_like(occ)
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    return labels == int(np.argmax(sizes))
-
-
 def _person(occ: np.ndarray, bridge_vox: float, min_voxels: int):
     """The largest component plus every component within ``bridge_vox`` of it, and the bridges.
 
@@ -139,8 +128,17 @@ def _person(occ: np.ndarray, bridge_vox: float, min_voxels: int):
     return np.isin(labels, merged), bridges
 
 
-def _voxel_graph(component: np.ndarray, bridges=()) -> tuple[sparse.csr_matrix, np.ndarray]:
-    """Sparse symmetric graph over the voxels (edge length in voxels) and their indices."""
+def _voxel_graph(component: np.ndarray, bridges=()):
+    """Sparse symmetric graph over the voxels (edge length in voxels).
+
+    Returns
+    -------
+    graph : (n, n) scipy.sparse.csr_matrix
+    idx : (n, 3) int ndarray
+        The voxel of each node.
+    ids : int ndarray, shape of ``component``
+        The node of each voxel (−1 outside).
+    """
     idx = np.argwhere(component)
     ids = np.full(component.shape, -1, dtype=np.int64)
     ids[tuple(idx.T)] = np.arange(len(idx))
@@ -161,7 +159,7 @@ def _voxel_graph(component: np.ndarray, bridges=()) -> tuple[sparse.csr_matrix, 
         lengths.append(np.array([length]))
     r, c, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(lengths)
     graph = sparse.csr_matrix((w, (r, c)), shape=(len(idx), len(idx)))
-    return graph, idx
+    return graph, idx, ids
 
 
 def _tips(graph, idx, shape, dist, radius, min_dist, limit) -> list[int]:
@@ -247,9 +245,7 @@ def find_extremities(occupancy, grid: VoxelGrid, *, max_extremities: int = 7,
     component, bridges = _person(box, bridge_mm / float(grid.voxel_size), min_piece_voxels)
     n = int(component.sum())
     depth = ndimage.distance_transform_edt(np.pad(component, 1))[1:-1, 1:-1, 1:-1]
-    graph, idx = _voxel_graph(component, bridges)
-    ids = np.full(component.shape, -1, dtype=np.int64)
-    ids[tuple(idx.T)] = np.arange(n)
+    graph, idx, ids = _voxel_graph(component, bridges)
     centre_id = int(ids[np.unravel_index(int(np.argmax(depth)), depth.shape)])
     vs = float(grid.voxel_size)
     from_centre = csgraph.dijkstra(graph, directed=False, indices=centre_id)

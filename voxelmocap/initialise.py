@@ -125,7 +125,7 @@ def _to_segment(point, a, b):
 _TRUNK = np.array([0, 1, 2, 4, 5, 6, 7, 8, 9, 10])
 _LIMBS = {L_WRIST: np.array([11, 12, 13, 17]), R_WRIST: np.array([14, 15, 16, 18]),
           L_ANKLE: np.array([19, 20, 21, 25]), R_ANKLE: np.array([22, 23, 24, 26])}
-_PARENT = {L_WRIST: L_WRIST - 1, R_WRIST: R_WRIST - 1, L_ANKLE: L_ANKLE - 1, R_ANKLE: R_ANKLE - 1}
+_PARENT = {L_WRIST: L_WRIST - 1, R_WRIST: R_WRIST - 1}  # the elbows: the forearm's direction
 
 
 def _end_residual(model, joints, row, tip, yaw) -> np.ndarray:
@@ -233,7 +233,6 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
     # the legs, where no camera sees the gap).
     feet_choices = [list(c) for c in itertools.combinations(below[:3], 2)] or [below[:1]]
     standing = model.default_state()
-    pelvis_height = standing[2]
     out: list[Hypothesis] = []
     labellings = []
     for feet_idx in feet_choices:
@@ -267,8 +266,7 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
                     side = right_row if pts[0] @ right > ex.centre @ right else left_row
                     ends.append((side, pts[0]))
             x0 = standing.copy()
-            x0[0], x0[1] = ex.centre[0], ex.centre[1]
-            x0[2] = pelvis_height
+            x0[0], x0[1] = ex.centre[0], ex.centre[1]  # the standing pelvis height stays
             x0[3] = yaw
             state, cost = _fit(model, x0, ends, ex.centre)
             label = (f"{'no head' if head is None else 'head = tip ' + str(head)}, "

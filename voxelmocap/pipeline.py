@@ -253,9 +253,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         bar.update(1)
                     if records is None:
                         continue
-                    init_method += (f"; the likeliest of {len(starts.trackers)} starts after "
-                                    f"{len(records)} frames")
-                    tracker = _chosen(starts, log)
+                    tracker, chosen_phrase = _chosen(starts, log)
+                    init_method += chosen_phrase
                     checkpoints, starts = starts.checkpoints[starts.chosen], None
                 else:
                     # The file's seconds are the whole frame's: measurement, start and filter.
@@ -267,9 +266,9 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 _append(writer, records, checkpoints, tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
             if starts is not None:  # the sequence ended before the start was chosen
-                tracker = _chosen(starts, log)
-                init_method += (f"; the likeliest of {len(starts.trackers)} starts after "
-                                f"{len(starts.records[0])} frames")
+                starts.finish()
+                tracker, chosen_phrase = _chosen(starts, log)
+                init_method += chosen_phrase
                 _append(writer, starts.records[starts.chosen], starts.checkpoints[starts.chosen],
                         tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
@@ -283,13 +282,12 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         resumed_from, float(np.mean(done["seconds"])))
 
 
-def _chosen(starts, log) -> BodyTracker:
-    starts.finish()
-    totals = [sum(r.log_likelihood for r in rec) for rec in starts.records]
-    log(f"kept start {starts.chosen + 1} of {len(starts.trackers)} after "
-        f"{len(starts.records[0])} frames (summed log-likelihoods "
-        f"{', '.join(f'{t:.1f}' for t in totals)})")
-    return starts.tracker
+def _chosen(starts, log) -> tuple[BodyTracker, str]:
+    """The kept start's tracker (``starts`` has chosen) and the phrase for ``init_method``."""
+    n_frames, n_starts = len(starts.records[0]), len(starts.trackers)
+    log(f"kept start {starts.chosen + 1} of {n_starts} after {n_frames} frames (summed "
+        f"log-likelihoods {', '.join(f'{t:.1f}' for t in starts.totals)})")
+    return starts.tracker, f"; the likeliest of {n_starts} starts after {n_frames} frames"
 
 
 def _append(writer, records, checkpoints, tracker, done, n_selected, previous, attrs, model,

@@ -496,10 +496,14 @@ class MultiStart:
             states.append(tracker.get_state())
         return self.finish() if len(self.records[0]) >= self.frames else None
 
+    @property
+    def totals(self) -> list[float]:
+        """Each start's summed log-likelihood over the frames tracked so far."""
+        return [sum(r.log_likelihood for r in records) for records in self.records]
+
     def finish(self) -> list[FrameRecord]:
         """Choose now (e.g. the sequence ended early): the records of the likeliest start."""
-        totals = [sum(r.log_likelihood for r in records) for records in self.records]
-        self.chosen = int(np.argmax(totals))
+        self.chosen = int(np.argmax(self.totals))
         return self.records[self.chosen]
 
     @property
