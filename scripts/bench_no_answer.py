@@ -52,6 +52,20 @@ def stripped_copy(data: Path, subject: str, dest: Path) -> Path:
     return dest
 
 
+def parse_sets(items) -> dict:
+    """``["filter.search=hierarchical", "filter.refine_evaluations=40"]`` → overrides."""
+    import tomllib
+
+    out = {}
+    for item in items:
+        key, _, value = item.partition("=")
+        try:
+            out[key.strip()] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key.strip()] = value
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", default="/tmp/voxelmocap_acc/data",
@@ -70,15 +84,22 @@ def main() -> None:
                         help="init.multistart_frames (default: the config's, 10)")
     parser.add_argument("--with-answer", action="store_true",
                         help="track the original data (ground truth of frame 1, body file)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="config override, e.g. filter.search=hierarchical (repeatable; "
+                             "VALUE parsed as TOML)")
+    parser.add_argument("--tag", help="name of this variant's result folder and json")
+    parser.add_argument("--track-frames", help="synchronised frames A:B to track (default all)")
     args = parser.parse_args()
     data, out = Path(args.data), Path(args.out)
     wanted = set(args.clips.split(",")) if args.clips else None
     config = with_overrides(TrackConfig(), **{"init.method": args.init, "init.body": args.body,
                                               "init.hypotheses": args.hypotheses,
                                               "init.multistart_frames": args.multistart})
+    config = with_overrides(config, **parse_sets(args.set))
     tag = "with_answer" if args.with_answer else \
         f"{args.init}_{args.body}_{args.hypotheses}" \
         f"{'' if args.multistart is None else f'_multi{args.multistart}'}"
+    tag = args.tag or tag
     rows = {}
     for index, (clip, action, start) in enumerate(CLIPS):
         if wanted and action not in wanted:
@@ -97,11 +118,13 @@ def main() -> None:
             run = out / tag / f"seed{seed}"
             t0 = time.perf_counter()
             outcome = track_sequence(source, subject, seq_name, run, config=config, seed=seed,
-                                     resume=True, progress=False, log=lambda _m: None)
+                                     frames=args.track_frames, resume=True, progress=False,
+                                     log=lambda _m: None)
             wall = time.perf_counter() - t0
             sc = score_against(outcome.result_path, gt_path, delta=100.0).scores
-            per_seed.append((sc.mu_mm, sc.mmta_pct))
+            per_seed.append((sc.mu_mm, sc.mmta_pct, 1.0 / outcome.seconds_per_frame))
             print(f"{action:<9s} seed {seed}: μ {sc.mu_mm:7.1f} mm  MMTA {sc.mmta_pct:5.1f} %  "
+                  f"{1.0 / outcome.seconds_per_frame:5.2f} frames/s "
                   f"({wall:.0f} s; init: {outcome.init_method})", flush=True)
         rows[action] = per_seed
     allv = np.array([np.mean(v, axis=0) for v in rows.values()])

@@ -199,8 +199,24 @@ def test_every_filter_option_reaches_the_filter_from_toml():
     used = {"layers", "particles", "survival", "noise_decay", "betas", "alphas", "beta_max",
             "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
             "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
-            "joint_std_rad"}
+            "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
+            "limb_particles", "refine_evaluations"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
+    # the hierarchical search's own options
+    hier = config_from_toml("""
+    [filter]
+    search = "hierarchical"
+    trunk_layers = 4
+    trunk_particles = 300
+    limb_layers = 3
+    limb_particles = 120
+    refine_evaluations = 24
+    survival = 0.4
+    """)
+    pf = build_filter(MODEL, hier, 0)
+    assert [(len(p.dims), p.layers, p.particles) for p in pf.partitions] == \
+        [(11, 4, 300)] + [(4, 3, 120)] * 4
+    assert (pf.refine_evaluations, pf.survival, pf.n_total) == (24, 0.4, 300)
 
 
 @pytest.mark.parametrize(
@@ -232,14 +248,20 @@ def test_one_statement_of_the_ranges_and_names():
     import dataclasses
 
     from voxelmocap.config import FilterConfig, config_from_toml
-    from voxelmocap.tracking import DYNAMICS, SCHEMES, STRATEGIES, AnnealedParticleFilter
+    from voxelmocap.tracking import (
+        DYNAMICS,
+        SCHEMES,
+        SEARCHES,
+        STRATEGIES,
+        AnnealedParticleFilter,
+    )
 
     cfg = config_from_toml("[filter]\nsurvival = 1.0\n")  # the filter's (0, 1], not (0, 1)
     AnnealedParticleFilter(10, 2, [0.0], [1.0], 0.1, survival=cfg.filter.survival)
     choices = {f.name: set(f.metadata["choices"]) for f in dataclasses.fields(FilterConfig)
                if "choices" in f.metadata}
     assert choices == {"strategy": set(STRATEGIES), "dynamics": set(DYNAMICS),
-                       "resampling": set(SCHEMES)}
+                       "resampling": set(SCHEMES), "search": set(SEARCHES)}
     iapf = config_from_toml("[filter]\nstrategy = 'iapf'\niapf_fractions = [0.8, 0.0]\n"
                             "layers = 2\nparticles = 20\n")
     states = walk_states(2)  # tracks: 80 % from the dynamics, 20 % from the prior, corrected

@@ -135,6 +135,10 @@ class LikelihoodConfig:
 
     #: σ² of the Out, DO, Empty and Surf scores
     variances: tuple[float, float, float, float] = (0.01, 0.01, 0.1, 0.1)
+    #: standard deviation (degrees) of a zero-mean Gaussian prior on the root pitch, which the
+    #: voxels cannot see: the hips lie on the pitch axis, so pitch + waist and hip flexion
+    #: compensate exactly (docs/benchmarks.md, null direction). None: no prior
+    root_pitch_prior_deg: float | None = None
 
 
 @dataclass(frozen=True)
@@ -187,6 +191,21 @@ class FilterConfig:
     #: follow the knees (walk 76 mm, 3 seeds: the legs are lost mid-stride); 0.12 gave 70 mm on the
     #: jog. 0.1 rad = 5.7° per frame at 60 Hz.
     joint_std_rad: float = 0.1
+    #: ``joint``: every layer searches all 27 dimensions (paper 002); ``hierarchical``: the root,
+    #: trunk and head first, then each limb with the rest held at the estimate, the limbs scored
+    #: by exact partial re-scoring (``voxelmocap.hierarchy``; ``layers``/``particles`` then do
+    #: not apply). See docs/benchmarks.md, "Accuracy without the answer".
+    search: str = _choice("joint", "hierarchical", default="joint")
+    #: hierarchical search: layers and particles of the root-and-trunk partition
+    trunk_layers: int = 3
+    trunk_particles: int = 600
+    #: hierarchical search: layers and particles of each limb partition (shoulder 3 + elbow, or
+    #: hip 3 + knee)
+    limb_layers: int = 2
+    limb_particles: int = 225
+    #: likelihood evaluations of the deterministic compass search refining each partition's
+    #: estimate (hierarchical search; 0 = no refinement)
+    refine_evaluations: int = 0
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
@@ -331,13 +350,23 @@ def _check_ranges(obj, prefix: str, source) -> None:
     if isinstance(obj, MeasurementConfig):
         _check_measurement(obj, prefix, source)
     positive = {"voxel_size", "surface_sigma", "layers", "particles", "translation_std_mm",
-                "rotation_std_rad", "joint_std_rad", "background_frames", "hypotheses"}
+                "rotation_std_rad", "joint_std_rad", "background_frames", "hypotheses",
+                "trunk_layers", "trunk_particles", "limb_layers", "limb_particles",
+                "root_pitch_prior_deg"}
     for name in positive:
-        if hasattr(obj, name) and not getattr(obj, name) > 0:
+        if hasattr(obj, name) and getattr(obj, name) is not None and not getattr(obj, name) > 0:
             key = f"{prefix}.{name}" if prefix else name
             raise InputError(source, f"key {key!r} must be > 0")
     if isinstance(obj, FilterConfig):
         _check_filter(obj, prefix, source)
+        if obj.refine_evaluations < 0:
+            raise InputError(source, f"key '{prefix}.refine_evaluations' must be >= 0")
+        if min(obj.trunk_particles, obj.limb_particles) < 2:
+            raise InputError(source, f"keys '{prefix}.trunk_particles' and "
+                                     f"'{prefix}.limb_particles' must be >= 2")
+        if obj.search == "hierarchical" and obj.strategy != "apf":
+            raise InputError(source, f"key '{prefix}.search': the hierarchical search runs the "
+                                     f"apf strategy only, not {obj.strategy!r}")
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
     if isinstance(obj, SilhouetteConfig):

@@ -189,6 +189,16 @@ def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
 
     fc = config.filter
     noise = noise_profile(model, config) if noise_std is None else noise_std
+    if fc.search == "hierarchical":
+        from .hierarchy import body_partitions
+        from .tracking.partitioned import PartitionedParticleFilter
+
+        opts = fc.filter_options()
+        return PartitionedParticleFilter(
+            body_partitions(fc), model.low, model.high, noise, rng=rng,
+            survival=opts["survival"], noise_decay=opts["noise_decay"],
+            dynamics=build_dynamics(model, fc), resampling=opts["resampling"],
+            beta_max=opts["beta_max"], refine_evaluations=fc.refine_evaluations)
     return AnnealedParticleFilter(
         fc.particles, fc.layers, model.low, model.high, noise, strategy=fc.strategy, rng=rng,
         dynamics=build_dynamics(model, fc), **fc.filter_options())
@@ -371,19 +381,45 @@ class BodyTracker:
 
         When ``spent`` is given, its first element is increased by the seconds of every call.
         """
+        from .hierarchy import pitch_prior
         from .likelihood import log_likelihood
 
         model, variances = self.model, self.variances
+        prior = self.config.likelihood.root_pitch_prior_deg
 
         def ll(states):
-            if spent is None:
-                return log_likelihood(observation, model, states, variances=variances)
             t0 = time.perf_counter()
             out = log_likelihood(observation, model, states, variances=variances)
-            spent[0] += time.perf_counter() - t0
+            if prior is not None:
+                out = out + pitch_prior(states, prior)
+            if spent is not None:
+                spent[0] += time.perf_counter() - t0
             return out
 
         return ll
+
+    def partition_log_likelihood(self, observation, spent: list | None = None):
+        """The hierarchical filter's per-frame factory ``(k, reference) -> ll`` (see
+        :func:`voxelmocap.hierarchy.log_likelihood_for`); ``spent`` as for
+        :meth:`log_likelihood`."""
+        from .hierarchy import log_likelihood_for
+
+        def factory(k, reference):
+            t0 = time.perf_counter()
+            inner = log_likelihood_for(observation, self.model, self.variances,
+                                       self.config.likelihood.root_pitch_prior_deg, k, reference)
+            if spent is not None:
+                spent[0] += time.perf_counter() - t0
+
+            def ll(states):
+                t1 = time.perf_counter()
+                out = inner(states)
+                if spent is not None:
+                    spent[0] += time.perf_counter() - t1
+                return out
+            return ll
+
+        return factory
 
     def step(self, observation, *, frame: int | None = None) -> FrameRecord:
         """Track one frame and describe the estimate (then call the observers).
@@ -403,7 +439,11 @@ class BodyTracker:
         t0 = time.perf_counter()
         pf = self.filter
         spent = [0.0]
-        est = self.model.clip(pf.step(self.log_likelihood(observation, spent))[None])
+        if hasattr(pf, "step_partitioned"):
+            est = pf.step_partitioned(self.partition_log_likelihood(observation, spent))
+        else:
+            est = pf.step(self.log_likelihood(observation, spent))
+        est = self.model.clip(est[None])
         # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
         # joints picked by index); the part scores run their own inside the likelihood kernel.
         joints = self.model.forward(est).joints

@@ -6,7 +6,8 @@ bounds, a dynamics model and a per-frame log-likelihood callable ``(P, D) -> (P,
 Modules: :mod:`.truncated` (exact truncated-Gaussian sampling), :mod:`.resampling` (log-weights,
 resampling schemes by name), :mod:`.annealing` (β by bisection, fixed schedules, layer noise),
 :mod:`.dynamics` (random walk, Azad's velocity and two-state elbow models), :mod:`.apf`
-(:class:`AnnealedParticleFilter` with strategies ``sir``, ``apf``, ``iapf``).
+(:class:`AnnealedParticleFilter` with strategies ``sir``, ``apf``, ``iapf``), :mod:`.partitioned`
+(the hierarchical search, :class:`PartitionedParticleFilter`) and :mod:`.refine` (compass search).
 
 >>> import numpy as np
 >>> from voxelmocap.tracking import AnnealedParticleFilter
@@ -26,6 +27,7 @@ from .annealing import (
 )
 from .apf import STRATEGIES, AnnealedParticleFilter, check_options
 from .dynamics import DYNAMICS, Dynamics, RandomWalk, TwoStateElbow, VelocityModel
+from .partitioned import SEARCHES, Partition, PartitionedParticleFilter
 from .resampling import SCHEMES, Weights, get_scheme, systematic
 from .truncated import truncated_normal, truncated_normal_logpdf
 
@@ -34,9 +36,12 @@ __all__ = [
     "FONTMARTY_ALPHAS",
     "FONTMARTY_BETAS",
     "SCHEMES",
+    "SEARCHES",
     "STRATEGIES",
     "AnnealedParticleFilter",
     "Dynamics",
+    "Partition",
+    "PartitionedParticleFilter",
     "RandomWalk",
     "TwoStateElbow",
     "VelocityModel",

@@ -1,0 +1,81 @@
+"""The body's partitions for the hierarchical search, and their likelihoods.
+
+The state splits into five groups whose effect on the voxels can be scored apart (Deutscher &
+Reid 2005; Canton-Ferrer et al. 2011): the root, trunk and head (11 dimensions; they move every
+part, so this partition is scored in full), then each limb — left and right leg (hip 3 + knee),
+left and right arm (shoulder 3 + elbow) — which moves only its two cones. The legs go first:
+they hold more voxels than the arms and pin the pelvis height and heading the arms hang from.
+A limb's particles are scored by :class:`~voxelmocap.partial_likelihood.PartialScorer`, equal to
+the full likelihood, at the cost of two cones instead of ten.
+
+>>> [len(d) for d, _ in BODY_PARTITIONS]
+[11, 4, 4, 4, 4]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .body.shapes import PART_NAMES
+from .body.state import STATE_INDEX
+from .tracking.partitioned import Partition
+
+__all__ = ["BODY_PARTITIONS", "body_partitions", "log_likelihood_for", "pitch_prior"]
+
+
+def _dims(*names):
+    return tuple(STATE_INDEX[n] for n in names)
+
+
+def _parts(*names):
+    return tuple(PART_NAMES.index(n) for n in names)
+
+
+#: (dimensions, parts they move) of each partition, in search order; parts ``()`` = all.
+BODY_PARTITIONS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
+    (_dims("root_x", "root_y", "root_z", "root_yaw", "root_pitch", "root_roll", "waist_flex",
+           "waist_side", "waist_twist", "neck_flex", "neck_side"), ()),
+    (_dims("l_hip_flex", "l_hip_abd", "l_hip_rot", "l_knee"), _parts("l_thigh", "l_shin")),
+    (_dims("r_hip_flex", "r_hip_abd", "r_hip_rot", "r_knee"), _parts("r_thigh", "r_shin")),
+    (_dims("l_shoulder_flex", "l_shoulder_abd", "l_shoulder_rot", "l_elbow"),
+     _parts("l_upper_arm", "l_forearm")),
+    (_dims("r_shoulder_flex", "r_shoulder_abd", "r_shoulder_rot", "r_elbow"),
+     _parts("r_upper_arm", "r_forearm")),
+)
+
+
+def body_partitions(fc) -> list[Partition]:
+    """The filter's partitions from a ``FilterConfig`` (trunk and limb layers/particles)."""
+    out = [Partition(BODY_PARTITIONS[0][0], fc.trunk_layers, fc.trunk_particles)]
+    out += [Partition(dims, fc.limb_layers, fc.limb_particles) for dims, _ in BODY_PARTITIONS[1:]]
+    return out
+
+
+def pitch_prior(states, std_deg: float | None) -> np.ndarray | float:
+    """Log-density (up to a constant) of a zero-mean Gaussian prior on the root pitch."""
+    if std_deg is None:
+        return 0.0
+    pitch = np.asarray(states)[:, STATE_INDEX["root_pitch"]]
+    return -0.5 * (pitch / np.deg2rad(std_deg)) ** 2
+
+
+def log_likelihood_for(observation, model, variances, prior_deg, k: int, reference):
+    """Partition ``k``'s log-likelihood callable ``(P, 27) -> (P,)`` around ``reference``.
+
+    Partition 0 is scored in full; a limb with :class:`PartialScorer` built on ``reference``.
+    The root-pitch prior (:func:`pitch_prior`) is added to both.
+    """
+    from .likelihood import log_likelihood
+    from .partial_likelihood import PartialScorer
+
+    dims, parts = BODY_PARTITIONS[k]
+    if not parts:
+        def ll(states):
+            return log_likelihood(observation, model, states, variances=variances) + \
+                pitch_prior(states, prior_deg)
+        return ll
+    scorer = PartialScorer(observation, model, reference, parts, dims)
+
+    def ll_partial(states):
+        return scorer.log_likelihood(states, variances=variances) + pitch_prior(states, prior_deg)
+    return ll_partial
