@@ -1,16 +1,20 @@
 """Tracking speed at the paper's working point: 7 cameras, 20 mm voxels, 6 layers × 600 particles.
 
-Renders a procedural walk once (cached in --data), then tracks it and reports, per frame, the
-median seconds of the measurement stage (decode excluded: subtract, carve, surface, smooth), the
-likelihood evaluations (6 × 600 per frame) and the rest of the filter, plus frames per second.
-The first frame (JIT compilation, tables) is reported separately.
+Renders a procedural walk once (cached in --data), measures every frame once and steps each
+configuration (``--variants``: the joint search, the hierarchical search with and without
+refinement) on the same measurement, in turn. Reports the median seconds of the measurement stage
+(decode excluded: subtract, carve, surface, smooth) and, per variant, the likelihood evaluations
+per frame, their time, the rest of the filter, frames per second (measurement + step) and the
+speed ratio to the first variant. The first frame (JIT compilation, tables) is left out.
 
-Usage: ``python scripts/bench_tracking.py [--frames 30] [--layers 6] [--particles 600]``
+Usage: ``python scripts/bench_tracking.py [--frames 30] [--layers 6] [--particles 600]
+[--variants joint,hierarchical]``
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import time
 from pathlib import Path
@@ -31,50 +35,75 @@ def main() -> None:
     parser.add_argument("--layers", type=int, default=6)
     parser.add_argument("--particles", type=int, default=600)
     parser.add_argument("--voxel-size", type=float, default=20.0)
+    parser.add_argument("--variants", default="joint,hierarchical,hierarchical+refine",
+                        help="configurations tracked side by side on the same measurements")
     args = parser.parse_args()
+    args.load = " ".join(f"{v:.2f}" for v in os.getloadavg())
 
     data = Path(args.data)
     if not (data / "S1" / "Mocap_Data" / "Walking_1.xml").exists():
         generate(data, motion="walk", frames=args.frames, progress=True)
     seq = Dataset(data).sequence("S1", "Walking_1")
     gt = seq.ground_truth()
-    config = with_overrides(TrackConfig(), **{"filter.layers": args.layers,
-                                              "filter.particles": args.particles,
-                                              "measurement.voxel_size": args.voxel_size})
+    base = with_overrides(TrackConfig(), **{"filter.layers": args.layers,
+                                            "filter.particles": args.particles,
+                                            "measurement.voxel_size": args.voxel_size})
+    variants = {}
+    for name in args.variants.split(","):
+        if name not in VARIANTS:
+            raise SystemExit(f"unknown variant {name!r}; choose from {', '.join(VARIANTS)}")
+        variants[name] = with_overrides(base, **VARIANTS[name])
     model, _ = body_model_for(seq, gt)
     t0 = time.perf_counter()
-    runner = MeasurementRunner(seq, config, log=None)
+    runner = MeasurementRunner(seq, base, log=None)
     setup = time.perf_counter() - t0
-    tracker = BodyTracker(model, config, seed=0)
+    trackers = {name: BodyTracker(model, cfg, seed=0) for name, cfg in variants.items()}
     frames = seq.frame_numbers[: args.frames]
-    t_meas, t_ll, t_total = [], [], []
+    t_meas = []
+    t_ll = {name: [] for name in trackers}
+    t_step = {name: [] for name in trackers}
+    evals = {name: [] for name in trackers}
     for frame_number, images in seq.frames(frames):
         t0 = time.perf_counter()
         measurement = runner.measure(images)
-        t1 = time.perf_counter()
-        if not tracker.initialised:
-            tracker.initialise(measurement, ground_truth_landmarks(gt, frame_number),
-                               frame=frame_number)
-        record = tracker.step(measurement, frame=frame_number)
-        t2 = time.perf_counter()
-        t_meas.append(t1 - t0)
-        t_ll.append(record.likelihood_seconds)
-        t_total.append(t2 - t0)
-    t_meas, t_ll, t_total = (np.array(v) for v in (t_meas, t_ll, t_total))
-    rest = t_total - t_meas - t_ll
-    evals = args.layers * args.particles
+        t_meas.append(time.perf_counter() - t0)
+        # the variants step on the same measurement one after the other, in turn each frame
+        for name, tracker in trackers.items():
+            t1 = time.perf_counter()
+            if not tracker.initialised:
+                tracker.initialise(measurement, ground_truth_landmarks(gt, frame_number),
+                                   frame=frame_number)
+            record = tracker.step(measurement, frame=frame_number)
+            t_step[name].append(time.perf_counter() - t1)
+            t_ll[name].append(record.likelihood_seconds)
+            evals[name].append(tracker.filter.step_evaluations)
+    t_meas = np.array(t_meas)
     print(f"machine: {platform.machine()}, {platform.processor() or 'cpu'}; "
           f"{len(seq.camera_names)} cameras, grid {runner.grid.shape} at {args.voxel_size:g} mm, "
-          f"{args.layers} layers × {args.particles} particles, {len(frames)} frames")
+          f"{len(frames)} frames; load average before: {args.load}")
     print(f"set-up (background models, grid, carving tables): {setup:.2f} s")
-    print(f"first frame (JIT compilation included):           {t_total[0]:.2f} s")
-    print("per frame, median over frames 2..N:")
-    print(f"  measurement (subtract, carve, surface, smooth):  {np.median(t_meas[1:]) * 1e3:8.1f} ms")
-    print(f"  likelihood ({evals} evaluations):               {np.median(t_ll[1:]) * 1e3:8.1f} ms"
-          f"  ({np.median(t_ll[1:]) / evals * 1e6:.1f} µs per particle)")
-    print(f"  filter (propagation, resampling, β search):      {np.median(rest[1:]) * 1e3:8.1f} ms")
-    print(f"  total:                                           {np.median(t_total[1:]) * 1e3:8.1f} ms"
-          f"  = {1.0 / np.median(t_total[1:]):.2f} frames/s")
+    print(f"measurement per frame (subtract, carve, surface, smooth), median over frames "
+          f"2..N: {np.median(t_meas[1:]) * 1e3:.1f} ms")
+    print(f"{'variant':<24s} {'evals/frame':>11s} {'likelihood ms':>13s} {'µs/eval':>8s} "
+          f"{'filter ms':>9s} {'total ms':>9s} {'frames/s':>8s} {'ratio':>6s}")
+    first = None
+    for name in trackers:
+        ll = np.median(t_ll[name][1:])
+        step = np.median(t_step[name][1:])
+        total = np.median(t_meas[1:] + np.array(t_step[name][1:]))
+        ev = np.median(evals[name][1:])
+        first = first or total
+        print(f"{name:<24s} {ev:11.0f} {ll * 1e3:13.1f} {ll / ev * 1e6:8.1f} "
+              f"{(step - ll) * 1e3:9.1f} {total * 1e3:9.1f} {1.0 / total:8.2f} "
+              f"{first / total:6.2f}")
+
+
+#: Named configurations compared side by side (``--variants``).
+VARIANTS = {
+    "joint": {},
+    "hierarchical": {"filter.search": "hierarchical"},
+    "hierarchical+refine": {"filter.search": "hierarchical", "filter.refine_evaluations": 40},
+}
 
 
 if __name__ == "__main__":
