@@ -200,7 +200,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
             "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
             "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
-            "limb_particles", "refine_evaluations"}
+            "limb_particles", "refine_evaluations", "limb_explore"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
     # the hierarchical search's own options
     hier = config_from_toml("""

@@ -206,6 +206,9 @@ class FilterConfig:
     #: likelihood evaluations of the deterministic compass search refining each partition's
     #: estimate (hierarchical search; 0 = no refinement)
     refine_evaluations: int = 0
+    #: hierarchical search: share of each limb partition's first layer drawn uniformly over the
+    #: limb's legal ranges (a 4-dimensional box is small enough to search globally), in [0, 1)
+    limb_explore: float = 0.0
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
@@ -236,6 +239,10 @@ class InitConfig:
     #: body size when there is no body file and no ground truth: ``voxels`` scales the average
     #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult
     body: str = _choice("voxels", "average", default="voxels")
+    #: extra filter steps on the first frame before it is recorded, so that a rough start (an
+    #: extremity fit, a standing pose) settles onto the first frame's voxels instead of being
+    #: dragged along by the motion while still far off; the estimate history is then cleared
+    settle_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -357,8 +364,12 @@ def _check_ranges(obj, prefix: str, source) -> None:
         if hasattr(obj, name) and getattr(obj, name) is not None and not getattr(obj, name) > 0:
             key = f"{prefix}.{name}" if prefix else name
             raise InputError(source, f"key {key!r} must be > 0")
+    if isinstance(obj, InitConfig) and obj.settle_steps < 0:
+        raise InputError(source, f"key '{prefix}.settle_steps' must be >= 0")
     if isinstance(obj, FilterConfig):
         _check_filter(obj, prefix, source)
+        if not 0.0 <= obj.limb_explore < 1.0:
+            raise InputError(source, f"key '{prefix}.limb_explore' must be in [0, 1)")
         if obj.refine_evaluations < 0:
             raise InputError(source, f"key '{prefix}.refine_evaluations' must be >= 0")
         if min(obj.trunk_particles, obj.limb_particles) < 2:

@@ -198,7 +198,8 @@ def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
             body_partitions(fc), model.low, model.high, noise, rng=rng,
             survival=opts["survival"], noise_decay=opts["noise_decay"],
             dynamics=build_dynamics(model, fc), resampling=opts["resampling"],
-            beta_max=opts["beta_max"], refine_evaluations=fc.refine_evaluations)
+            beta_max=opts["beta_max"], refine_evaluations=fc.refine_evaluations,
+            explore=fc.limb_explore)
     return AnnealedParticleFilter(
         fc.particles, fc.layers, model.low, model.high, noise, strategy=fc.strategy, rng=rng,
         dynamics=build_dynamics(model, fc), **fc.filter_options())
@@ -313,6 +314,7 @@ class BodyTracker:
         self.filter = build_filter(model, self.config, rng, noise_std=self.noise_std)
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
+        self._settle = 0  # settling steps still due on the next frame (see settle)
 
     def __repr__(self) -> str:
         return f"BodyTracker({self.model!r}, {self.filter!r})"
@@ -372,7 +374,27 @@ class BodyTracker:
         """Draw the first particles around ``mean`` ((27,) or (K, 27) for a mixture)."""
         self.init_method = phrase
         self.filter.initialise(mean, self.config.init.spread * self.noise_std)
+        self._settle = self.config.init.settle_steps
         return phrase
+
+    def _run_filter(self, observation, spent):
+        pf = self.filter
+        if hasattr(pf, "step_partitioned"):
+            return pf.step_partitioned(self.partition_log_likelihood(observation, spent))
+        return pf.step(self.log_likelihood(observation, spent))
+
+    def settle(self, observation) -> None:
+        """Run ``config.init.settle_steps`` filter steps on the first frame (not recorded).
+
+        The estimates of these steps are not motion: the history the dynamics use and the frame
+        count are reset afterwards, so the first recorded step starts from zero velocity.
+        """
+        steps, self._settle = self._settle, 0
+        pf = self.filter
+        for _ in range(steps):
+            self._run_filter(observation, None)
+        if steps:
+            pf.clear_history()
 
     # ------------------------------------------------------------------ one frame
     def log_likelihood(self, observation, spent: list | None = None
@@ -439,11 +461,9 @@ class BodyTracker:
         t0 = time.perf_counter()
         pf = self.filter
         spent = [0.0]
-        if hasattr(pf, "step_partitioned"):
-            est = pf.step_partitioned(self.partition_log_likelihood(observation, spent))
-        else:
-            est = pf.step(self.log_likelihood(observation, spent))
-        est = self.model.clip(est[None])
+        if self._settle:
+            self.settle(observation)
+        est = self.model.clip(self._run_filter(observation, spent)[None])
         # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
         # joints picked by index); the part scores run their own inside the likelihood kernel.
         joints = self.model.forward(est).joints
@@ -520,7 +540,7 @@ class MultiStart:
         for k, state in enumerate(np.atleast_2d(np.asarray(states, dtype=float))):
             tracker = BodyTracker(model, config, seed=np.random.default_rng([int(seed), k]),
                                   noise_std=noise_std)
-            tracker.filter.initialise(state, config.init.spread * tracker.noise_std)
+            tracker.start("multi-start", state)
             self.trackers.append(tracker)
         self.records: list[list[FrameRecord]] = [[] for _ in self.trackers]
         #: each start's filter state after each frame, so that the kept start's frames can be

@@ -295,6 +295,12 @@ class AnnealedParticleFilter:
         self._history = np.empty((0, self.dim))
         self._clear_records()
 
+    def clear_history(self) -> None:
+        """Forget the estimates the dynamics see (e.g. after settling steps on one frame) and
+        restart the step count; particles and weights stay."""
+        self._history = np.empty((0, self.dim))
+        self.frame = 0
+
     # ------------------------------------------------------------------ one frame
     def _evaluate(self, log_likelihood: LogLikelihood, x: np.ndarray) -> np.ndarray:
         ll = np.asarray(log_likelihood(x), dtype=np.float64)

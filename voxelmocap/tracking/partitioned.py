@@ -70,6 +70,9 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         As for :class:`~.apf.AnnealedParticleFilter`.
     refine_evaluations : int
         Likelihood evaluations of the pattern search after each partition (0: no refinement).
+    explore : float
+        Share of the first layer's particles of every partition after the first drawn uniformly
+        over the partition's legal box (0: none).
 
     Notes
     -----
@@ -81,7 +84,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
     def __init__(self, partitions: Sequence[Partition], low, high, noise_std, *, rng=None,
                  survival: float = 0.5, noise_decay: float = 0.5, dynamics=None,
                  resampling: str = "systematic", beta_max: float = np.inf,
-                 refine_evaluations: int = 0):
+                 refine_evaluations: int = 0, explore: float = 0.0):
         parts = [Partition(tuple(int(d) for d in p.dims), int(p.layers), int(p.particles))
                  for p in partitions]
         if not parts:
@@ -101,6 +104,10 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         self.partitions = parts
         self.noise_decay = float(noise_decay)
         self.refine_evaluations = int(refine_evaluations)
+        if not 0.0 <= float(explore) < 1.0 or (explore > 0 and not (
+                np.all(np.isfinite(self.low)) and np.all(np.isfinite(self.high)))):
+            raise InputError("explore", "must be in [0, 1), with finite bounds when > 0")
+        self.explore = float(explore)
         self.refine_gains = np.zeros(len(parts))
 
     def step(self, log_likelihood, **kwargs):
@@ -191,6 +198,13 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
             centre = (self.dynamics.drift(x, self._history) if layer == 0 else x)[:, dims]
             x = x.copy()
             x[:, dims] = truncated_normal(centre, std, lo, hi, self.rng)
+            n_explore = round(self.explore * part.particles) if layer == 0 and k > 0 else 0
+            if n_explore:
+                # a share drawn over the whole legal box of this partition: a few dimensions
+                # are small enough to search globally, so a limb stuck in a local optimum can
+                # jump to a better one
+                idx = self.rng.choice(part.particles, n_explore, replace=False)
+                x[np.ix_(idx, dims)] = self.rng.uniform(lo, hi, (n_explore, dims.size))
             lls = self._evaluate(ll, x)
             beta = find_beta(lls, self.survival, beta_max=self.beta_max)
             w = Weights(tempered_log_weights(lls, beta))
