@@ -268,3 +268,25 @@ def test_one_statement_of_the_ranges_and_names():
     tracker = BodyTracker(MODEL, iapf, seed=0)
     tracker.track(observations(states), ground_truth=MODEL.landmarks(states[:1])[0])
     assert tracker.filter.iapf_corrected
+
+
+def test_settling_steps_bring_a_rough_start_closer_before_the_first_record():
+    deg = np.pi / 180
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
+    truth = MODEL.default_state()
+    truth[[11, 17, 19, 25]] = (30 * deg, 40 * deg, 25 * deg, 30 * deg)
+    seen = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
+    start = truth.copy()
+    start[[0, 3, 11, 19]] += (60.0, 12 * deg, -15 * deg, -15 * deg)
+    errors = {}
+    for steps in (0, 6):
+        config = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150,
+                                                  "init.settle_steps": steps})
+        tracker = BodyTracker(MODEL, config, seed=1)
+        tracker.start("test", start)
+        record = tracker.step(seen, frame=1)
+        errors[steps] = np.linalg.norm(record.landmarks - MODEL.landmarks(truth[None])[0],
+                                       axis=1).mean()
+        # the settling steps are not motion: one estimate in the history, frame count 1
+        assert tracker.filter.history.shape[0] == 1 and tracker.filter.frame == 1
+    assert errors[6] < 0.9 * errors[0], errors
