@@ -188,8 +188,8 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
               (item, root, out, config_toml, frames, cameras, seed, overwrite,
                progress and here)) for item in todo]
     by_key = {task[0]: item for task, item in zip(tasks, todo, strict=True)}
-    for outcome in run_tasks(tasks, scheduler=scheduler, n_workers=n_workers, local=True,
-                             progress=progress and not here, desc="sequences"):
+
+    def finished(outcome) -> None:  # as each sequence ends, not when all have
         item = by_key[outcome.key]
         if outcome.ok:
             summary.done.append(item.key)
@@ -199,6 +199,9 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
         else:
             summary.failed.append((item.key, outcome.error))
             emit(logger, log, f"{item.key} failed: {outcome.error}", logging.WARNING)
+
+    run_tasks(tasks, scheduler=scheduler, n_workers=n_workers, local=True,
+              progress=progress and not here, desc="sequences", on_outcome=finished)
     order = {item.key: i for i, item in enumerate(items)}  # summaries in data set order
     summary.done.sort(key=order.get)
     summary.failed.sort(key=lambda kf: order[kf[0]])

@@ -101,8 +101,9 @@ class RunLogHandler(logging.Handler):
         formatter = logging.Formatter(_FILE_FORMAT, _DATE_FORMAT)
         formatter.converter = time.gmtime  # UTC, as the result files' creation time
         self.setFormatter(formatter)
-        self._pending: list[str] = [
-            f"{time.strftime(_DATE_FORMAT, time.gmtime())}.000 START   {header}"]
+        now = time.time()
+        self._pending: list[str] = [f"{time.strftime(_DATE_FORMAT, time.gmtime(now))}."
+                                    f"{int(now % 1 * 1000):03d} START   {header}"]
         self._stream = None
 
     @property

@@ -17,6 +17,7 @@ one failing task does not stop the others unless ``stop_on_error``.
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 from collections.abc import Callable, Sequence
@@ -76,7 +77,8 @@ def _outcome(key: str, returned, stop_on_error: bool) -> TaskOutcome:
 
 def run_tasks(tasks: Sequence[Task], *, scheduler: str | None = None,
               n_workers: int | None = None, local: bool = False, stop_on_error: bool = False,
-              progress: bool = True, desc: str = "tasks") -> list[TaskOutcome]:
+              progress: bool = True, desc: str = "tasks",
+              on_outcome: Callable[[TaskOutcome], None] | None = None) -> list[TaskOutcome]:
     """Run every task; their outcomes in the order they finished.
 
     Parameters
@@ -96,6 +98,8 @@ def run_tasks(tasks: Sequence[Task], *, scheduler: str | None = None,
         A progress bar over the tasks.
     desc : str
         The bar's label.
+    on_outcome : callable, optional
+        Called with each :class:`TaskOutcome` as soon as its task ends.
 
     Raises
     ------
@@ -107,27 +111,28 @@ def run_tasks(tasks: Sequence[Task], *, scheduler: str | None = None,
     if n_workers is not None and n_workers < 1:
         raise InputError("--workers", f"must be at least 1, got {n_workers}")
     bar = _bar(len(tasks), progress, desc)
+    report = functools.partial(_report, bar=bar, on_outcome=on_outcome)
     try:
         if local and scheduler is None and n_workers is None:
-            return _run_here(tasks, stop_on_error, bar)
-        return _run_on_dask(tasks, scheduler, n_workers, stop_on_error, bar)
+            return _run_here(tasks, stop_on_error, report)
+        return _run_on_dask(tasks, scheduler, n_workers, stop_on_error, report)
     finally:
         if bar is not None:
             bar.close()
 
 
-def _run_here(tasks, stop_on_error, bar) -> list[TaskOutcome]:
+def _run_here(tasks, stop_on_error, report) -> list[TaskOutcome]:
     outcomes = []
     for key, function, args in tasks:
         if stop_on_error:  # the exception itself, with its traceback
             outcome = TaskOutcome(key, True, function(*args))
         else:
             outcome = _outcome(key, _guarded(function, *args), False)
-        outcomes.append(_report(outcome, bar))
+        outcomes.append(report(outcome))
     return outcomes
 
 
-def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, bar) -> list[TaskOutcome]:
+def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, report) -> list[TaskOutcome]:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:  # pragma: no cover - depends on the optional extra
@@ -155,7 +160,7 @@ def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, bar) -> list[TaskOu
                 if stop_on_error:
                     raise
                 returned = (False, _one_line(exc), False)
-            outcomes.append(_report(_outcome(key, returned, stop_on_error), bar))
+            outcomes.append(report(_outcome(key, returned, stop_on_error)))
     finally:
         client.close()
         if cluster is not None:
@@ -163,11 +168,13 @@ def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, bar) -> list[TaskOu
     return outcomes
 
 
-def _report(outcome: TaskOutcome, bar) -> TaskOutcome:
+def _report(outcome: TaskOutcome, *, bar, on_outcome) -> TaskOutcome:
     if outcome.ok:
         logger.debug("%s: done", outcome.key)
     else:  # the caller reports it, in its own words
         logger.debug("%s failed: %s", outcome.key, outcome.error)
+    if on_outcome is not None:
+        on_outcome(outcome)
     if bar is not None:
         bar.update(1)
     return outcome
