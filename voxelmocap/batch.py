@@ -166,6 +166,8 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
     from .io._atomic import ensure_output_dir
     from .tasks import run_tasks
 
+    if n_workers is not None and n_workers < 1:  # before anything is created
+        raise InputError("--workers", f"must be at least 1, got {n_workers}")
     config = config or TrackConfig()
     items = dataset_items(dataset) if items is None else list(items)
     config_toml = config_to_toml(config)

@@ -28,8 +28,9 @@ the silhouettes of a strongly distorted camera sit a few pixels off the voxels' 
 the image's edges. The principal point is shifted by half a pixel: voxelmocap's pixel (0, 0) is
 centred at (0, 0) (``camera.Camera``), Rerun's at (0.5, 0.5).
 
-The recording is written to a hidden temporary sibling while the run goes on and renamed to its
-name by :meth:`RerunRecorder.close` (:meth:`RerunRecorder.abort` deletes it after a failure).
+The recording is written to a hidden temporary sibling while the run goes on (created when the run
+starts, after its inputs are checked) and renamed to its name by :meth:`RerunRecorder.close`
+(:meth:`RerunRecorder.abort` deletes it after a failure).
 ``rerun-sdk`` is the optional ``rerun`` extra.
 
 >>> recorder = RerunRecorder("run.rrd")                               # doctest: +SKIP
@@ -113,16 +114,15 @@ class RerunRecorder:
     """
 
     def __init__(self, path, *, top_k: int = 5, jpeg_quality: int = 75, voxels: bool = True):
-        from ..io._atomic import create_temporary
-
-        self._rr = _require_rerun()
         self.path = Path(path)
         if self.path.suffix.lower() != ".rrd":
             raise InputError(self.path, "expected a Rerun .rrd file name")
+        self._rr = _require_rerun()
         self.top_k = int(top_k)
         self.jpeg_quality = int(jpeg_quality)
         self.record_voxels = bool(voxels)
-        self._tmp = create_temporary(self.path)
+        self._tmp = None  # created by start(): a run refused before it leaves nothing
+        self._closed = False
         self._stream = None
         self._grid = None
         self._cameras: list[str] = []
@@ -130,10 +130,19 @@ class RerunRecorder:
 
     # ------------------------------------------------------------------ the run's hooks
     def start(self, seq, grid) -> None:
-        """Open the stream and place the rig: called once the measurement stage exists."""
+        """Open the stream and place the rig: called once the measurement stage exists.
+
+        Raises
+        ------
+        InputError
+            The file cannot be written there (before any frame is processed).
+        """
+        from ..io._atomic import create_temporary
+
         rr = self._rr
         if self._stream is not None:
             return
+        self._tmp = create_temporary(self.path)
         self._stream = rr.RecordingStream("voxelmocap", recording_id=f"{seq.subject}/{seq.name}")
         self._stream.save(self._tmp)
         self._grid = grid
@@ -209,8 +218,9 @@ class RerunRecorder:
 
     def close(self) -> Path:
         """Finish the file and move it to its name; the path."""
-        if self._tmp is None:
+        if self._closed:
             return self.path
+        self._require_started()
         if self._stream is not None:
             self._stream.flush()
             self._stream.disconnect()  # closes the file sink (writes the footer)
@@ -220,6 +230,7 @@ class RerunRecorder:
         except OSError as exc:
             raise InputError(self.path, f"cannot write here ({exc.strerror or exc})") from None
         self._tmp = None
+        self._closed = True
         return self.path
 
     def abort(self) -> None:
