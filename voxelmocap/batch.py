@@ -112,8 +112,8 @@ def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None,
                seed: int = 0, overwrite: bool = False, progress: bool = False) -> dict:
     """Track one item (runs in a Dask worker or here); a short description of its result.
 
-    In a worker process the messages of the run are appended to ``RUN/voxelmocap.log`` too,
-    each prefixed with the item's key.
+    The run's messages are appended to ``RUN/voxelmocap.log``, each prefixed with the item's
+    key (in a Dask worker; in the command's own process its run log already holds them).
     """
     from .config import config_from_toml
     from .logs import task_log

@@ -81,6 +81,7 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
     from .io._atomic import atomic_write_text
     from .io.humaneva import Dataset
     from .io.reports import score_against
+    from .logs import task_log
     from .pipeline import track_sequence
 
     cell_dir = Path(out_dir) / "cells" / cell.name
@@ -96,9 +97,10 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
         raise InputError("--cameras", f"{cell.n_cameras} cameras asked, the sequence has "
                                       f"{len(seq.camera_names)}")
     cameras = seq.camera_names[: cell.n_cameras]
-    outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
-                             frames=frames, cameras=cameras, seed=cell.seed, progress=False,
-                             overwrite=True)
+    with task_log(Path(out_dir) / "voxelmocap.log", cell.name):  # the worker's lines, too
+        outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
+                                 frames=frames, cameras=cameras, seed=cell.seed,
+                                 progress=False, overwrite=True)
     scored = score_against(outcome.result_path, seq.ground_truth_path or seq.ground_truth(),
                            delta=delta)
     row = dict(asdict(cell), seed=cell.seed, cameras=",".join(cameras),

@@ -33,7 +33,8 @@ def recorded(tmp_path_factory):
                  "--no-progress", "--rerun", str(path)]) == 0
     rows = defaultdict(dict)  # entity → {frame or "static": {column: value}}
     reader = rrd.RrdReader(path)
-    (recording,) = reader.recordings()
+    (recording,) = reader.recordings()  # one recording, named after the sequence
+    assert recording.recording_id == "S1/Walking_1"
     for chunk in reader.stream().to_chunks():
         batch = chunk.to_record_batch()
         columns = {n: batch.column(n).to_pylist() for n in batch.schema.names
@@ -47,7 +48,7 @@ def recorded(tmp_path_factory):
 
 
 def test_every_frame_has_every_entity(recorded):
-    _, root, path, rows = recorded
+    _, _, path, rows = recorded
     assert sorted(p.name for p in path.parent.iterdir()) == ["walk.rrd"]  # no partial left
     per_frame = ["/world/voxels", "/world/skeleton", "/world/skeleton/landmarks",
                  "/world/particles/pelvis", "/world/particles/top"]
