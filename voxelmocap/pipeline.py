@@ -336,6 +336,9 @@ def _append(writer, records, checkpoints, tracker, done, n_selected, previous, a
             done[key].append(value)
         writer.append(record, tracker.get_state() if checkpoint is None else checkpoint,
                       complete=len(done["frames"]) == n_selected)
+        logger.debug("frame %d: log-likelihood %.2f, ESS per layer %s, %.3f s", record.frame,
+                     record.log_likelihood, " ".join(f"{e:.0f}" for e in record.ess),
+                     record.seconds)
     if bar is not None:
         bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
                         fps=f"{1.0 / max(records[-1].seconds, 1e-9):.2f}")
