@@ -58,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_verbosity(parser: argparse.ArgumentParser, default) -> None:
     group = parser.add_argument_group("output")
     group.add_argument("-v", "--verbose", action="count", default=default,
-                       help="more messages (debug details); also in the run's voxelmocap.log")
+                       help="debug messages too (a run's voxelmocap.log always has them)")
     group.add_argument("-q", "--quiet", action="count", default=default,
                        help="only warnings and errors on the console")
 

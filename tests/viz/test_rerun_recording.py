@@ -130,3 +130,13 @@ def test_cameras_are_placed_as_the_calibration_projects(recorded):
         cam = points @ camera.R.T + camera.T
         expected = camera.fc * cam[:, :2] / cam[:, 2:] + camera.cc
         np.testing.assert_allclose(pixels, expected, atol=0.05)
+
+
+def test_nothing_tracked_writes_no_recording(recorded, capsys):
+    data, root, _, _ = recorded
+    path = root / "again" / "walk.rrd"
+    assert main(["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--out",
+                 str(root / "run"), "--layers", "2", "--particles", "40", "--voxel-size", "40",
+                 "--no-progress", "--resume", "--rerun", str(path)]) == 0
+    assert f"warning: no recording written to {path}" in capsys.readouterr().out
+    assert not path.parent.exists() or not any(path.parent.iterdir())

@@ -98,8 +98,7 @@ def run(args: argparse.Namespace) -> int:
                                  config=config, frames=args.frames, cameras=cameras,
                                  seed=args.seed, resume=args.resume, overwrite=args.overwrite,
                                  progress=not args.no_progress, recorder=recorder)
-        if recorder is not None:
-            recorder.close()
+        recorded = recorder.close() if recorder is not None else None
     finally:
         if recorder is not None:
             recorder.abort()  # a failed run leaves no recording (no-op once closed)
@@ -108,8 +107,11 @@ def run(args: argparse.Namespace) -> int:
     logger.info(f"results: {outcome.result_path}")
     logger.info(f"         {outcome.xml_path}")
     logger.info(f"         {outcome.bvh_path}")
-    if recorder is not None:
-        logger.info(f"recording: {recorder.path}")
+    if recorded is not None:
+        logger.info(f"recording: {recorded}")
+    elif recorder is not None:
+        logger.warning(f"no recording written to {recorder.path}: nothing was tracked (the "
+                       "result was complete; --overwrite tracks and records it again)")
     return 0
 
 

@@ -216,11 +216,13 @@ class RerunRecorder:
             raise RuntimeError("RerunRecorder: start(seq, grid) has not been called")
         return self._stream
 
-    def close(self) -> Path:
-        """Finish the file and move it to its name; the path."""
+    def close(self) -> Path | None:
+        """Finish the file and move it to its name; the path (None: the run never started,
+        e.g. its result was already complete, and nothing was written)."""
         if self._closed:
             return self.path
-        self._require_started()
+        if self._stream is None:
+            return None
         if self._stream is not None:
             self._stream.flush()
             self._stream.disconnect()  # closes the file sink (writes the footer)
