@@ -126,6 +126,15 @@ def _evaluate_json_unwritable(data, tmp):
             str(tmp / "file" / "r.json")]
 
 
+def _rerun_not_rrd(data, tmp):
+    return _track(data, tmp, "--rerun", str(tmp / "x.txt"))
+
+
+def _all_zero_workers(data, tmp):
+    return ["track", str(data), "--all", "--workers", "0", "--out", str(tmp / "run"),
+            "--no-progress"]
+
+
 CASES: list[Case] = [
     Case("track --config: TOML file that is not UTF-8", _config_not_utf8("track"),
          ("{tmp}/cfg.toml", "not UTF-8")),
@@ -149,4 +158,7 @@ CASES: list[Case] = [
     Case("overlay --fps 0", _overlay_fps_zero, ("frame rate must be a positive number",)),
     Case("ground truth coordinate 1e308", _gt_huge_coordinate, ("Walking_1.xml", "1e308")),
     Case("evaluate --json below a file", _evaluate_json_unwritable, ("{tmp}/file",)),
+    Case("track --rerun x.txt (not a Rerun file)", _rerun_not_rrd,
+         ("{tmp}/x.txt", "expected a Rerun .rrd file name")),
+    Case("track --all --workers 0", _all_zero_workers, ("--workers", "at least 1")),
 ]

@@ -3,12 +3,17 @@
 Each subcommand lives in ``voxelmocap/commands/<name>.py`` with ``add_parser(subparsers)`` and
 ``run(args) -> int``; heavy imports happen inside ``run`` so that ``--help`` stays fast. Errors that
 users can fix (:class:`voxelmocap.errors.VoxelmocapError`) are printed as one line and exit with 2.
+
+``-v`` / ``-q`` (before or after the subcommand) set how much of the package's logging reaches the
+console (:mod:`voxelmocap.logs`); a subcommand that sets ``log_folder`` (``track``, ``dump``,
+``sweep``) also appends its messages to ``<folder>/voxelmocap.log``.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import os
 import sys
 
@@ -39,11 +44,23 @@ def build_parser() -> argparse.ArgumentParser:
         description="Markerless multi-camera motion capture on HumanEva-format sequences.",
     )
     parser.add_argument("--version", action="version", version=f"voxelmocap {__version__}")
+    _add_verbosity(parser, argparse.SUPPRESS)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module_name in COMMANDS.values():
         module = importlib.import_module(f"voxelmocap.commands.{module_name}")
         module.add_parser(sub)
+    for subparser in sub.choices.values():
+        # SUPPRESS: a subcommand's parser leaves a -v given before the subcommand standing.
+        _add_verbosity(subparser, argparse.SUPPRESS)
     return parser
+
+
+def _add_verbosity(parser: argparse.ArgumentParser, default) -> None:
+    group = parser.add_argument_group("output")
+    group.add_argument("-v", "--verbose", action="count", default=default,
+                       help="debug messages too (a run's voxelmocap.log always has them)")
+    group.add_argument("-q", "--quiet", action="count", default=default,
+                       help="only warnings and errors on the console")
 
 
 #: Options whose value may start with "-" (a frame range such as ``-5:3``): argparse would take
@@ -77,14 +94,34 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
+    from . import logs
+
+    verbosity = getattr(args, "verbose", 0) - getattr(args, "quiet", 0)
+    log_folder = getattr(args, "log_folder", None)
+    logs.configure(verbosity, log_dir=log_folder(args) if log_folder else None,
+                   argv=sys.argv[1:] if argv is None else argv)
+    logger = logging.getLogger("voxelmocap.cli")
+    committed = True
     try:
-        return int(args.run(args) or 0)
+        code = int(args.run(args) or 0)
+        logger.debug("exit code %d", code)
+        return code
     except VoxelmocapError as exc:
         print(f"voxelmocap {args.command}: error: {exc}", file=sys.stderr)
+        # In the log file only, and only if the run had begun: a refused command leaves nothing.
+        logger.error("%s (exit code 2)", exc, extra={"file_only": True})
+        committed = False
         return 2
     except KeyboardInterrupt:
         print(f"voxelmocap {args.command}: interrupted", file=sys.stderr)
+        logger.error("interrupted (exit code 130)", extra={"file_only": True})
+        committed = False
         return 130
+    except BaseException:
+        logger.exception("failed", extra={"file_only": True})
+        raise
+    finally:
+        logs.finish(committed)
 
 
 if __name__ == "__main__":  # pragma: no cover

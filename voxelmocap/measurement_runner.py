@@ -17,6 +17,7 @@ Only this module, :mod:`voxelmocap.pipeline`, :mod:`voxelmocap.io` and the comma
 from __future__ import annotations
 
 import dataclasses
+import logging
 import time
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
@@ -26,10 +27,13 @@ import numpy as np
 
 from .config import TrackConfig
 from .errors import InputError
+from .logs import emit
 from .measurement import MeasurementStage
 from .observation import VoxelObservation
 
 __all__ = ["DumpOutcome", "MeasurementRunner", "dump_sequence"]
+
+logger = logging.getLogger(__name__)
 
 
 class MeasurementRunner(MeasurementStage):
@@ -42,7 +46,8 @@ class MeasurementRunner(MeasurementStage):
     config : TrackConfig
         ``config.measurement`` is used.
     log : callable or None
-        Where one-line messages go (None: nowhere).
+        Also receives every one-line message (they go to the ``voxelmocap.measurement_runner``
+        logger in any case).
 
     Attributes
     ----------
@@ -57,7 +62,7 @@ class MeasurementRunner(MeasurementStage):
         Per camera, the frames it was left out of the carving.
     """
 
-    def __init__(self, seq, config: TrackConfig, log=print):
+    def __init__(self, seq, config: TrackConfig, log=None):
         from .grid import VoxelGrid
         from .silhouette import build_backgrounds
 
@@ -111,8 +116,7 @@ class MeasurementRunner(MeasurementStage):
         return self
 
     def _say(self, message: str) -> None:
-        if self.log is not None:
-            self.log(message)
+        emit(logger, self.log, message)
 
     def measure(self, images: Mapping, *, frame: int | None = None) -> VoxelObservation:
         """The observation of one frame (:meth:`MeasurementStage.measure`), with its messages.
@@ -186,7 +190,7 @@ class DumpOutcome:
 def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
                   config: TrackConfig | None = None, frames: str | None = None, cameras=None,
                   masks: bool = False, ply_dir=None, ply_points: bool = False,
-                  progress: bool = True, log=print) -> DumpOutcome:
+                  progress: bool = True, log=None) -> DumpOutcome:
     """Measure the frames of one sequence and write every volume to a voxel dump.
 
     Parameters
@@ -211,8 +215,8 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
         PLY as a point cloud of voxel centres instead of an Open3D voxel grid.
     progress : bool
         Show a progress bar.
-    log : callable
-        Where one-line messages go.
+    log : callable, optional
+        Also receives every one-line message (they go to the logger in any case).
 
     Returns
     -------
@@ -239,17 +243,17 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     if ply_dir is not None and ply_dir.exists() and not ply_dir.is_dir():
         raise InputError(ply_dir, "exists and is not a folder")
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
-    if log is not None:
-        for problem in seq.problems:  # cameras the data set has but this run cannot use
-            log(f"warning: {problem}")
+    for problem in seq.problems:  # cameras the data set has but this run cannot use
+        emit(logger, log, problem, logging.WARNING)
     selected = parse_frame_range(frames, seq.frame_numbers) if frames else seq.frame_numbers
     if len(selected) == 0:
         raise InputError(f"{seq.subject}/{seq.name}", "no frames to dump")
 
     runner = MeasurementRunner(seq, config, log=log)
     grid = runner.grid
-    log(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras {','.join(seq.camera_names)}, "
-        f"grid {grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} at {grid.voxel_size:g} mm")
+    emit(logger, log, f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
+                      f"{','.join(seq.camera_names)}, grid {grid.shape[0]}x{grid.shape[1]}x"
+                      f"{grid.shape[2]} at {grid.voxel_size:g} mm")
     attrs = {"dataset": str(Path(dataset_root).resolve()), "subject": seq.subject,
              "sequence": seq.name, "config": config_to_toml(config),
              "surface_sigma": float(config.measurement.surface_sigma)}

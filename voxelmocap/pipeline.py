@@ -21,6 +21,7 @@ Only this module, :mod:`voxelmocap.io` and the command line touch files.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +31,7 @@ import numpy as np
 from .config import TrackConfig, config_to_toml
 from .errors import InputError
 from .frames import parse_frame_range
+from .logs import emit, run_started
 from .measurement_runner import MeasurementRunner  # re-export: it lived here
 
 # Back-compatible names: the tracker owns the noise profile, the filter and the initialisation.
@@ -52,6 +54,8 @@ __all__ = [
     "parse_frame_range",
     "track_sequence",
 ]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -125,7 +129,8 @@ def _result_paths(out_dir: Path, seq) -> tuple[Path, Path, Path]:
 def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                    config: TrackConfig | None = None, frames: str | None = None,
                    cameras=None, seed: int = 0, resume: bool = False, overwrite: bool = False,
-                   progress: bool = True, log=print, fps: float | None = None) -> TrackOutcome:
+                   progress: bool = True, log=None, fps: float | None = None,
+                   recorder=None) -> TrackOutcome:
     """Track one sequence and write its results (see the module docstring).
 
     Parameters
@@ -151,19 +156,30 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
         Replace an existing result instead of refusing.
     progress : bool
         Show a progress bar.
-    log : callable
-        Where one-line messages go.
+    log : callable, optional
+        Also receives every one-line message (they go to the ``voxelmocap.pipeline`` logger
+        in any case; warnings prefixed ``warning:``).
     fps : float, optional
         Frame rate (Hz) of the BVH and the result file; default the sequence's own
         (``Sequence.frame_rate``: the video metadata, else HumanEva-I's 60 Hz).
+    recorder : object, optional
+        Sees the run as it goes (e.g. :class:`voxelmocap.viz.rerun_recording.RerunRecorder`):
+        ``recorder.start(seq, grid)`` once the measurement stage is built,
+        ``recorder.observe(frame, images, observation)`` after each frame is measured, and
+        ``recorder(record, tracker)`` for every frame tracked (a tracker observer; ``tracker``
+        is None for the frames of the starts replayed after a multi-start chose one).
+        Frames already done by a resumed run are not replayed to it.
     """
     from .io.humaneva import Dataset
     from .io.results import ResultWriter
 
+    def say(message: str, level: int = logging.INFO) -> None:
+        emit(logger, log, message, level)
+
     config = config or TrackConfig()
     seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
     for problem in seq.problems:  # cameras the data set has but this run cannot use
-        log(f"warning: {problem}")
+        say(problem, logging.WARNING)
     gt = seq.ground_truth()
     selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
@@ -186,7 +202,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     with ResultWriter(result_path) as writer:
         previous = _previous_run(writer, meta, resume, overwrite)
         if previous is not None and previous.attrs["complete"]:
-            log(f"{result_path} is already complete")
+            say(f"{result_path} is already complete")
             if not (xml_path.exists() and bvh_path.exists()):  # interrupted after the h5
                 _write_exports(xml_path, bvh_path, seq, gt, previous.frames, previous.endpoints,
                                fps)
@@ -204,11 +220,11 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 tracker = BodyTracker(model, config, seed=seed)
             tracker.set_state(previous.checkpoint)
             init_method = str(previous.attrs.get("init_method"))
-            log(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
+            say(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
                 f"({resumed_from} of {len(selected)} done)")
 
         stage = MeasurementRunner(seq, config, log=log)
-        log(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
+        say(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
             f"{','.join(seq.camera_names)}, grid {stage.grid.shape} at "
             f"{stage.grid.voxel_size:g} mm, {config.filter.layers} layers × "
             f"{config.filter.particles} particles ({config.filter.strategy}); body: {model_source}")
@@ -222,19 +238,25 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
             for key in done:
                 done[key].extend(getattr(previous, key))
         if not _kernels_cached():
-            log("compiling the likelihood kernels (first run only, ~20 s)…")
+            say("compiling the likelihood kernels (first run only, ~20 s)…")
+        logger.debug("result %s, frames %s, seed %d, frame rate %g Hz", result_path,
+                     meta["frames_requested"], seed, fps)
+        if recorder is not None:
+            recorder.start(seq, stage.grid)
         bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
         starts = None  # a MultiStart while its first frames run
         try:
             for frame_number, images in seq.frames(selected[resumed_from:]):
                 t0 = time.perf_counter()
                 measurement = stage.measure(images, frame=frame_number)
+                if recorder is not None:
+                    recorder.observe(frame_number, images, measurement)
                 if tracker is None:
                     model, model_source = _sized_model(_voxel_height(measurement, frame_number),
                                                        frame_number)
                     meta["body_model"] = model_source
                     meta["body_height_mm"] = float(model.dimensions.height)
-                    log(f"body: {model_source}")
+                    say(f"body: {model_source}")
                     tracker = BodyTracker(model, config, seed=seed)
                 if not tracker.initialised and starts is None:
                     init_method, states = tracker.initial_state(
@@ -244,7 +266,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         starts = MultiStart(model, config, seed, states, n_multi)
                     else:
                         tracker.start(init_method, states)
-                    log(f"initialised from {init_method}")
+                    say(f"initialised from {init_method}")
                 if starts is not None:
                     # Nothing is written until the start is chosen: a run killed before that
                     # simply starts again.
@@ -253,11 +275,14 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         bar.update(1)
                     if records is None:
                         continue
-                    tracker, chosen_phrase = _chosen(starts, log)
+                    tracker, chosen_phrase = _chosen(starts, say)
                     init_method += chosen_phrase
                     checkpoints, starts = starts.checkpoints[starts.chosen], None
+                    _replay(recorder, records)
                 else:
                     # The file's seconds are the whole frame's: measurement, start and filter.
+                    if recorder is not None and recorder not in tracker.observers:
+                        tracker.observers.append(recorder)
                     record = tracker.step(measurement, frame=frame_number)
                     records = [dataclasses.replace(record, seconds=time.perf_counter() - t0)]
                     checkpoints = [None]
@@ -267,7 +292,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
             if starts is not None:  # the sequence ended before the start was chosen
                 starts.finish()
-                tracker, chosen_phrase = _chosen(starts, log)
+                tracker, chosen_phrase = _chosen(starts, say)
+                _replay(recorder, starts.records[starts.chosen])
                 init_method += chosen_phrase
                 _append(writer, starts.records[starts.chosen], starts.checkpoints[starts.chosen],
                         tracker, done, len(selected), previous,
@@ -282,10 +308,17 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                         resumed_from, float(np.mean(done["seconds"])))
 
 
-def _chosen(starts, log) -> tuple[BodyTracker, str]:
+def _replay(recorder, records) -> None:
+    """The kept start's first records to the recorder (their particles are gone: no tracker)."""
+    if recorder is not None:
+        for record in records:
+            recorder(record, None)
+
+
+def _chosen(starts, say) -> tuple[BodyTracker, str]:
     """The kept start's tracker (``starts`` has chosen) and the phrase for ``init_method``."""
     n_frames, n_starts = len(starts.records[0]), len(starts.trackers)
-    log(f"kept start {starts.chosen + 1} of {n_starts} after {n_frames} frames (summed "
+    say(f"kept start {starts.chosen + 1} of {n_starts} after {n_frames} frames (summed "
         f"log-likelihoods {', '.join(f'{t:.1f}' for t in starts.totals)})")
     return starts.tracker, f"; the likeliest of {n_starts} starts after {n_frames} frames"
 
@@ -297,11 +330,15 @@ def _append(writer, records, checkpoints, tracker, done, n_selected, previous, a
         if not writer.started:
             writer.start(record, attrs=attrs, state_names=model.state_names,
                          part_names=model.part_names, previous=previous, replace=replace)
+            run_started()  # the result exists: the run's log file is written from now on
         for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
                            ("seconds", record.seconds)):
             done[key].append(value)
         writer.append(record, tracker.get_state() if checkpoint is None else checkpoint,
                       complete=len(done["frames"]) == n_selected)
+        logger.debug("frame %d: log-likelihood %.2f, ESS per layer %s, %.3f s", record.frame,
+                     record.log_likelihood, " ".join(f"{e:.0f}" for e in record.ess),
+                     record.seconds)
     if bar is not None:
         bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
                         fps=f"{1.0 / max(records[-1].seconds, 1e-9):.2f}")

@@ -12,9 +12,9 @@ reaches the best MMTA, which :func:`voxelmocap.viz.plots.plot_sweep_heatmaps` ma
 heatmap over ``N_L × N_p`` per (voxel size, cameras), like the paper's Fig. 4 (the ``sweep``
 command draws them; this module does not import ``viz``).
 
-Tasks run on a local Dask cluster (one single-threaded worker process per core by default) or on
-an existing cluster given by its scheduler address (``dask[distributed]`` is the optional
-``distributed`` extra).
+Tasks run through :mod:`voxelmocap.tasks` (shared with ``track --all``) on a local Dask cluster
+(one single-threaded worker process per core by default) or on an existing cluster given by its
+scheduler address (``dask[distributed]`` is the optional ``distributed`` extra).
 """
 
 from __future__ import annotations
@@ -23,15 +23,19 @@ import csv
 import io
 import itertools
 import json
+import logging
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
+from .logs import emit, run_started
 
 __all__ = ["SweepCell", "best_cell", "collect_rows", "plan_cells", "run_cell", "run_sweep",
            "write_table"]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -77,6 +81,7 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
     from .io._atomic import atomic_write_text
     from .io.humaneva import Dataset
     from .io.reports import score_against
+    from .logs import task_log
     from .pipeline import track_sequence
 
     cell_dir = Path(out_dir) / "cells" / cell.name
@@ -92,9 +97,10 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
         raise InputError("--cameras", f"{cell.n_cameras} cameras asked, the sequence has "
                                       f"{len(seq.camera_names)}")
     cameras = seq.camera_names[: cell.n_cameras]
-    outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
-                             frames=frames, cameras=cameras, seed=cell.seed, progress=False,
-                             overwrite=True, log=lambda *_: None)
+    with task_log(Path(out_dir) / "voxelmocap.log", cell.name):  # the worker's lines, too
+        outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
+                                 frames=frames, cameras=cameras, seed=cell.seed,
+                                 progress=False, overwrite=True)
     scored = score_against(outcome.result_path, seq.ground_truth_path or seq.ground_truth(),
                            delta=delta)
     row = dict(asdict(cell), seed=cell.seed, cameras=",".join(cameras),
@@ -187,14 +193,16 @@ def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particle
               voxel_sizes=(20.0,), cameras=(7,), seeds: int = 1, frames=None,
               base_config_toml: str | None = None, scheduler: str | None = None,
               n_workers: int | None = None, delta: float = 100.0,
-              log=print) -> tuple[Path, list[dict]]:
-    """Run (or complete) a sweep; returns the CSV path and the table rows (one dict per cell)."""
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError:  # pragma: no cover - depends on the optional extra
-        raise InputError("sweep", "needs dask[distributed]: pip install 'voxelmocap[distributed]'"
-                         ) from None
+              log=None, progress: bool = True) -> tuple[Path, list[dict]]:
+    """Run (or complete) a sweep; returns the CSV path and the table rows (one dict per cell).
+
+    The cells run as tasks of :func:`voxelmocap.tasks.run_tasks` (a local Dask cluster of
+    ``n_workers`` processes, or the cluster at ``scheduler``); a failing cell stops the sweep
+    with its error. ``log`` (optional) also receives the messages of the ``voxelmocap.sweep``
+    logger.
+    """
     from .io.humaneva import Dataset
+    from .tasks import run_tasks
 
     seq = Dataset(dataset).sequence(subject, sequence)
     if seq.ground_truth_source is None:
@@ -205,33 +213,15 @@ def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particle
     _check_settings(out_dir, {"dataset": str(Path(dataset).resolve()), "subject": seq.subject,
                               "sequence": seq.name, "frames": frames, "delta_mm": delta,
                               "config": base_config_toml or ""})
+    run_started()  # the sweep folder holds its settings: its log file is written from now on
     cells = plan_cells(layers, particles, voxel_sizes, cameras, seeds)
     todo = [c for c in cells if not (out_dir / "cells" / c.name / "score.json").exists()]
-    log(f"{len(cells)} cells, {len(cells) - len(todo)} already done, {len(todo)} to run")
-    if todo:
-        if scheduler:
-            client = Client(scheduler)
-            cluster = None
-        else:
-            import os
-
-            workers = n_workers or max(1, min(len(todo), os.cpu_count() or 1))
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
-            client = Client(cluster)
-        try:
-            futures = [client.submit(run_cell, c, str(Path(dataset).resolve()), subject,
-                                     sequence, str(out_dir.resolve()), frames, base_config_toml,
-                                     delta, key=f"cell-{c.name}", pure=False) for c in todo]
-            from tqdm.auto import tqdm
-
-            with tqdm(total=len(futures), desc="sweep", unit="cell") as bar:
-                for future in as_completed(futures):
-                    future.result()  # re-raises a cell's error here
-                    bar.update(1)
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    emit(logger, log, f"{len(cells)} cells, {len(cells) - len(todo)} already done, "
+                      f"{len(todo)} to run")
+    root = str(Path(dataset).resolve())
+    run_tasks([(f"cell-{c.name}", run_cell, (c, root, subject, sequence, str(out_dir.resolve()),
+                                             frames, base_config_toml, delta)) for c in todo],
+              scheduler=scheduler, n_workers=n_workers, stop_on_error=True, progress=progress,
+              desc="sweep")
     rows = collect_rows(out_dir)
     return write_table(out_dir, rows), rows

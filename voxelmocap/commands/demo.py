@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import time
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -57,34 +60,35 @@ def run(args: argparse.Namespace) -> int:
     progress = not args.no_progress
 
     t0 = time.perf_counter()
-    print(f"[1/3] rendering {args.frames} frames of '{args.motion}' into {len(cameras)} cameras")
+    logger.info(f"[1/3] rendering {args.frames} frames of '{args.motion}' into "
+                f"{len(cameras)} cameras")
     generate(data, motion=args.motion, frames=args.frames, subject="S1", action=action, trial=1,
              seed=args.seed, cameras=cameras, progress=progress)
     t1 = time.perf_counter()
-    print(f"      {data} ({t1 - t0:.1f} s)")
+    logger.info(f"      {data} ({t1 - t0:.1f} s)")
 
     config = with_overrides(TrackConfig(), **{"filter.layers": args.layers,
                                               "filter.particles": args.particles,
                                               "measurement.voxel_size": args.voxel_size})
-    print(f"[2/3] tracking with {args.layers} layers × {args.particles} particles, "
+    logger.info(f"[2/3] tracking with {args.layers} layers × {args.particles} particles, "
           f"{args.voxel_size:g} mm voxels")
     outcome = track_sequence(data, "S1", f"{action}_1", run_dir, config=config, seed=args.seed,
                              overwrite=True, progress=progress,
-                             log=lambda msg: print(f"      {msg}"))
+                             log=None)
     t2 = time.perf_counter()
-    print(f"      {len(outcome.frames)} frames in {t2 - t1:.1f} s "
+    logger.info(f"      {len(outcome.frames)} frames in {t2 - t1:.1f} s "
           f"({1.0 / outcome.seconds_per_frame:.2f} frames/s)")
 
-    print("[3/3] evaluation against the ground truth")
+    logger.info("[3/3] evaluation against the ground truth")
     sequences = evaluate_files(run_dir, data, delta=100.0)
-    print(format_table(sequences, 100.0))
+    print(format_table(sequences, 100.0))  # the command's result: on stdout even with -q
     report = out / "report.json"
     write_json(report, report_json(sequences, 100.0))
-    print("\noutputs:")
-    print(f"  data set (HumanEva-I layout): {data}")
-    print(f"  tracking result (HDF5):       {outcome.result_path}")
-    print(f"  estimates (body_pose XML):    {outcome.xml_path}")
-    print(f"  tracked skeleton (BVH):       {outcome.bvh_path}")
-    print(f"  evaluation (JSON):            {report}")
-    print(f"next: voxelmocap overlay {run_dir} --dataset {data} --camera C1")
+    logger.info("\noutputs:")
+    logger.info(f"  data set (HumanEva-I layout): {data}")
+    logger.info(f"  tracking result (HDF5):       {outcome.result_path}")
+    logger.info(f"  estimates (body_pose XML):    {outcome.xml_path}")
+    logger.info(f"  tracked skeleton (BVH):       {outcome.bvh_path}")
+    logger.info(f"  evaluation (JSON):            {report}")
+    logger.info(f"next: voxelmocap overlay {run_dir} --dataset {data} --camera C1")
     return 0

@@ -9,6 +9,9 @@ optionally one PLY file of the occupied voxels per frame. The measurement settin
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -38,7 +41,14 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--background", choices=("gaussian", "mog2"),
                         help="background model (default gaussian, the HumanEva toolkit's)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.set_defaults(run=run)
+    parser.set_defaults(run=run, log_folder=_log_folder)
+
+
+def _log_folder(args):
+    """The dump's folder receives voxelmocap.log (the dump is one file, not a run folder)."""
+    from pathlib import Path
+
+    return Path(args.out).parent
 
 
 def _config(args):
@@ -59,11 +69,11 @@ def run(args: argparse.Namespace) -> int:
     outcome = dump_sequence(args.dataset, args.subject, args.sequence, args.out,
                             config=_config(args), frames=args.frames, cameras=cameras,
                             masks=args.masks, ply_dir=args.ply, ply_points=args.ply_points,
-                            progress=not args.no_progress, log=print)
+                            progress=not args.no_progress)
     per_frame = ", ".join(f"{k} {1000 * v:.1f}" for k, v in outcome.seconds_per_frame.items())
-    print(f"wrote {outcome.path} ({len(outcome.frames)} frames); ms per frame: {per_frame}")
+    logger.info(f"wrote {outcome.path} ({len(outcome.frames)} frames); ms per frame: {per_frame}")
     if outcome.ply_dir is not None:
-        print(f"PLY files in {outcome.ply_dir}")
+        logger.info("PLY files in %s", outcome.ply_dir)
     if outcome.summary:
-        print(f"warning: {outcome.summary}")
+        logger.warning(outcome.summary)
     return 0

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -41,13 +44,13 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(sequences, args.delta))
     if args.json:
         write_json(args.json, report_json(sequences, args.delta))
-        print(f"JSON: {args.json}")
+        logger.info("JSON: %s", args.json)
     if args.csv:
         paths = write_csvs(args.csv, sequences)
-        print(f"CSV: {paths[0]}, {paths[1]}")
+        logger.info("CSV: %s, %s", paths[0], paths[1])
     if args.plots:
         from ..viz.plots import plot_errors
 
         paths = plot_errors(sequences, args.plots, delta=args.delta)
-        print(f"plots: {', '.join(str(p) for p in paths)}")
+        logger.info("plots: %s", ", ".join(str(p) for p in paths))
     return 0

@@ -9,6 +9,9 @@ be scored against it (``scripts/evaluate_mmta.py``) without MATLAB.
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -65,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(files.trial, "the mocap covers no synchronised frame (the .ofs files "
                                       f"put frame 1 at mocap frame {seq.common_time:.3f})")
     write_body_pose_xml(args.out, gt.frames, gt.endpoints, gt.enabled, attributes=gt.attributes)
-    print(f"{seq.subject}/{seq.name}: {files.describe()}; frame 1 is mocap position "
-          f"{seq.common_time:.3f}, {seq.common_scaling:.4f} mocap frames per frame")
-    print(f"wrote {args.out}: {summary(poses, gt)}")
+    logger.info(f"{seq.subject}/{seq.name}: {files.describe()}; frame 1 is mocap position "
+                f"{seq.common_time:.3f}, {seq.common_scaling:.4f} mocap frames per frame")
+    logger.info(f"wrote {args.out}: {summary(poses, gt)}")
     return 0

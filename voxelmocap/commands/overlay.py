@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -31,5 +34,5 @@ def run(args: argparse.Namespace) -> int:
     out = overlay_video(args.run_dir, args.dataset, camera=args.camera, subject=args.subject,
                         sequence=args.sequence, out=args.out, fps=args.fps,
                         progress=not args.no_progress)
-    print(f"overlay: {out}")
+    logger.info("overlay: %s", out)
     return 0

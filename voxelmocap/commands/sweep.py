@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def _ints(text: str) -> list[int]:
@@ -49,8 +52,9 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--delta", type=float, default=100.0, help="MMTA threshold (mm)")
     parser.add_argument("--tolerance", type=float, default=0.0,
                         help="MMTA points below the best that still count as best (default 0)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--out", required=True, help="sweep folder SWEEP")
-    parser.set_defaults(run=run)
+    parser.set_defaults(run=run, log_folder=lambda args: args.out)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
         args.dataset, args.subject, args.sequence, args.out, layers=_ints(args.layers),
         particles=_ints(args.particles), voxel_sizes=_floats(args.voxel_size), cameras=cameras,
         seeds=args.seeds, frames=args.frames, base_config_toml=base, scheduler=args.scheduler,
-        n_workers=args.workers, delta=args.delta)
-    print(f"table: {csv_path}")
+        n_workers=args.workers, delta=args.delta, progress=not args.no_progress)
+    logger.info("table: %s", csv_path)
     for path in plot_sweep_heatmaps(rows, args.out, tolerance=args.tolerance):
-        print(f"heatmap: {path}")
+        logger.info("heatmap: %s", path)
     return 0

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -69,5 +72,5 @@ def run(args: argparse.Namespace) -> int:
                         codec=args.codec, start=args.start, unit=unit, overwrite=args.overwrite)
     except OSError as exc:  # e.g. the disk filled up or the folder turned read-only mid-way
         raise InputError(args.out, f"cannot write the data set ({exc.strerror or exc})") from None
-    print(f"wrote {root}")
+    logger.info("wrote %s", root)
     return 0

@@ -1,8 +1,11 @@
-"""``voxelmocap track``: track one sequence with the annealed particle filter."""
+"""``voxelmocap track``: track one sequence (or every sequence, ``--all``) with the APF."""
 
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 
 def add_parser(subparsers) -> None:
@@ -14,11 +17,26 @@ def add_parser(subparsers) -> None:
                     "body_pose XML of the estimates and a BVH of the tracked skeleton (at the "
                     "video's frame rate). Every frame is committed to the result file with the "
                     "filter's state as it is tracked, so --resume continues an interrupted run "
-                    "exactly; a result being written by another run is refused.",
+                    "exactly; a result being written by another run is refused. With --all, every "
+                    "sequence of the data set is tracked (as Dask tasks with --scheduler or "
+                    "--workers), complete results are skipped, and a summary lists what was "
+                    "done, skipped and failed (exit code 1 if any failed). Messages are also "
+                    "appended to RUN/voxelmocap.log.",
     )
     parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
-    parser.add_argument("--subject", required=True, help="e.g. S1")
-    parser.add_argument("--sequence", required=True, help="<Action>_<Trial>, e.g. Walking_1")
+    parser.add_argument("--subject", help="e.g. S1 (required unless --all)")
+    parser.add_argument("--sequence", help="<Action>_<Trial>, e.g. Walking_1 (required unless "
+                                           "--all)")
+    parser.add_argument("--all", action="store_true",
+                        help="track every sequence with videos of the data set; finished ones "
+                             "are skipped, interrupted ones resumed")
+    parser.add_argument("--scheduler", help="with --all: address of a running Dask scheduler")
+    parser.add_argument("--workers", type=int,
+                        help="with --all: worker processes of a local Dask cluster (default: "
+                             "the sequences run one after another in this process)")
+    parser.add_argument("--rerun", metavar="FILE.rrd",
+                        help="also write a Rerun recording of the run (cameras, silhouettes, "
+                             "voxels, particles, skeleton per frame); needs the 'rerun' extra")
     parser.add_argument("--frames", help="synchronised frames A:B (inclusive; default: every "
                                          "frame with ground truth)")
     parser.add_argument("--config", help="TOML file with [measurement], [likelihood], [filter], "
@@ -33,7 +51,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--overwrite", action="store_true", help="replace an existing result")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--out", required=True, help="run folder RUN")
-    parser.set_defaults(run=run)
+    parser.set_defaults(run=run, log_folder=lambda args: args.out)
 
 
 def resolve_config(args):
@@ -50,17 +68,67 @@ def resolve_config(args):
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..errors import InputError
+
+    if args.all:
+        for name in ("subject", "sequence", "rerun"):
+            if getattr(args, name):
+                raise InputError(f"--{name}", "not with --all (every sequence is tracked)")
+        if args.resume:
+            raise InputError("--resume", "not needed with --all: interrupted sequences are "
+                                         "resumed, finished ones skipped")
+        return _run_all(args)
+    for name in ("subject", "sequence"):
+        if not getattr(args, name):
+            raise InputError(f"--{name}", "required (or --all for every sequence)")
+    for name in ("scheduler", "workers"):
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name}", "only with --all")
     from ..pipeline import track_sequence
 
     config = resolve_config(args)
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
-    outcome = track_sequence(args.dataset, args.subject, args.sequence, args.out, config=config,
-                             frames=args.frames, cameras=cameras, seed=args.seed,
-                             resume=args.resume, overwrite=args.overwrite,
-                             progress=not args.no_progress)
-    print(f"tracked {len(outcome.frames)} frames ({outcome.frames[0]}–{outcome.frames[-1]}), "
-          f"{1.0 / outcome.seconds_per_frame:.2f} frames/s")
-    print(f"results: {outcome.result_path}")
-    print(f"         {outcome.xml_path}")
-    print(f"         {outcome.bvh_path}")
+    recorder = None
+    if args.rerun:
+        from ..viz.rerun_recording import RerunRecorder
+
+        recorder = RerunRecorder(args.rerun)
+    try:
+        outcome = track_sequence(args.dataset, args.subject, args.sequence, args.out,
+                                 config=config, frames=args.frames, cameras=cameras,
+                                 seed=args.seed, resume=args.resume, overwrite=args.overwrite,
+                                 progress=not args.no_progress, recorder=recorder)
+        recorded = recorder.close() if recorder is not None else None
+    finally:
+        if recorder is not None:
+            recorder.abort()  # a failed run leaves no recording (no-op once closed)
+    logger.info(f"tracked {len(outcome.frames)} frames ({outcome.frames[0]}–"
+                f"{outcome.frames[-1]}), {1.0 / outcome.seconds_per_frame:.2f} frames/s")
+    logger.info(f"results: {outcome.result_path}")
+    logger.info(f"         {outcome.xml_path}")
+    logger.info(f"         {outcome.bvh_path}")
+    if recorded is not None:
+        logger.info(f"recording: {recorded}")
+    elif recorder is not None:
+        logger.warning(f"no recording written to {recorder.path}: nothing was tracked (the "
+                       "result was complete; --overwrite tracks and records it again)")
     return 0
+
+
+def _run_all(args: argparse.Namespace) -> int:
+    """``--all``: every sequence; the summary; exit code 1 if any sequence failed."""
+    from ..batch import run_batch
+
+    cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
+    summary = run_batch(args.dataset, args.out, config=resolve_config(args), frames=args.frames,
+                        cameras=cameras, seed=args.seed, overwrite=args.overwrite,
+                        scheduler=args.scheduler, n_workers=args.workers,
+                        progress=not args.no_progress)
+    logger.info(f"summary: {summary.describe()}")
+    for key in summary.done:
+        logger.info(f"  done:    {key}")
+    for key in summary.skipped:
+        logger.info(f"  skipped: {key} (complete)")
+    for key, reason in summary.failed:
+        logger.info(f"  failed:  {key}: {reason}")
+    return 1 if summary.failed else 0

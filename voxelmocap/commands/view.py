@@ -9,6 +9,9 @@ camera's silhouette (when the dump holds masks) with the occupied voxel centres 
 from __future__ import annotations
 
 import argparse
+import logging
+
+logger = logging.getLogger(__name__)
 
 VOLUMES = ("occupancy", "surface", "smoothed")
 
@@ -38,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     outcome = view_dump(args.dump, frame=args.frame, volume=args.volume, out=args.out,
                         window=False if args.png else None)
     if outcome.message:
-        print(outcome.message)
+        logger.info(outcome.message)
     if outcome.png is not None:
-        print(f"wrote {outcome.png}")
+        logger.info("wrote %s", outcome.png)
     return 0

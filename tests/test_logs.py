@@ -1,0 +1,121 @@
+"""Logging of the command line: -q / -v, the run folder's voxelmocap.log, tqdm, bad input."""
+
+import logging
+import re
+import sys
+
+import pytest
+from tqdm import tqdm
+
+from voxelmocap import logs
+from voxelmocap.cli import main
+
+#: A quick track of the shared walk: 2 frames, 1 layer × 20 particles, 40 mm voxels.
+QUICK = ["--frames", "1:2", "--layers", "1", "--particles", "20", "--voxel-size", "40",
+         "--no-progress"]
+
+
+def _track(data, out, *extra):
+    return ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--out", str(out),
+            *QUICK, *extra]
+
+
+def test_quiet_verbose_and_the_log_file(walk_dataset, tmp_path, capsys):
+    run = tmp_path / "run"
+    # default: INFO on stdout, no DEBUG
+    assert main(_track(walk_dataset, run)) == 0
+    out = capsys.readouterr().out
+    assert "initialised from the ground truth of frame 1" in out
+    assert f"results: {run / 'S1' / 'Walking_1.h5'}" in out
+    assert "seed 0, frame rate" not in out
+    # -q before the subcommand: nothing at INFO (the run is complete: it says so at INFO)
+    assert main(["-q", *_track(walk_dataset, run, "--resume")]) == 0
+    assert capsys.readouterr().out == ""
+    # -v after the subcommand: the DEBUG lines too
+    assert main([*_track(walk_dataset, run, "--overwrite"), "-v"]) == 0
+    out = capsys.readouterr().out
+    assert f"result {run / 'S1' / 'Walking_1.h5'}, frames 1,2, seed 0, frame rate 60 Hz" in out
+    assert "initialised from the ground truth of frame 1" in out
+
+    text = (run / logs.LOG_NAME).read_text()
+    lines = text.splitlines()
+    starts = [line for line in lines if " START " in line]
+    # one block per command, appended, each headed by its command line
+    assert len(starts) == 3
+    assert "voxelmocap track " + str(walk_dataset) in starts[0]
+    assert starts[1].split("START   ")[1].startswith("voxelmocap -q track ")
+    assert " --overwrite -v " in starts[2] + " "
+    stamp = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} ")
+    assert all(stamp.match(line) for line in lines), lines
+    # the file holds every level, whatever the console showed: the quiet run's INFO line too
+    assert any("INFO    voxelmocap.pipeline:" in line and "is already complete" in line
+               for line in lines)
+    assert sum("initialised from the ground truth of frame 1" in line for line in lines) == 2
+    assert any("DEBUG   voxelmocap.pipeline: result " in line for line in lines)
+    assert any("voxelmocap.commands.track: results: " in line for line in lines)
+
+
+def test_bad_input_stays_one_line_and_writes_no_log(walk_dataset, tmp_path, capsys):
+    run = tmp_path / "run"
+    for argv in (["-v", *_track(walk_dataset, run, "--cameras", "C1,C9")],
+                 [*_track(walk_dataset, run, "--cameras", "C1,C9"), "-q"]):
+        assert main(argv) == 2
+        captured = capsys.readouterr()
+        lines = captured.err.strip().splitlines()
+        assert lines == ["voxelmocap track: error: --cameras: unknown camera 'C9' (S1/Walking_1 "
+                         "has C1, C2, C3, BW1)"]
+        assert captured.out == ""
+    assert not run.exists()  # refused before the run began: no folder, no log file
+
+
+def test_the_log_is_held_until_the_run_starts(tmp_path):
+    logs.configure(0, log_dir=tmp_path / "run", argv=["track", "x"])
+    try:
+        logging.getLogger("voxelmocap.pipeline").info("before")
+        assert not (tmp_path / "run").exists()
+        logs.run_started()
+        path = tmp_path / "run" / logs.LOG_NAME
+        assert "before" in path.read_text()
+        logging.getLogger("voxelmocap.pipeline").info("after")
+        assert path.read_text().splitlines()[-1].endswith("voxelmocap.pipeline: after")
+    finally:
+        logs.finish(False)
+    # finished: the package logger is silent again and the file is closed
+    assert not any(isinstance(h, logs.RunLogHandler) for h in logs.PACKAGE.handlers)
+    logs.configure(0, log_dir=tmp_path / "other", argv=["track", "y"])
+    logging.getLogger("voxelmocap.pipeline").info("dropped")
+    logs.finish(False)  # never started, failed: nothing written
+    assert not (tmp_path / "other").exists()
+
+
+def test_messages_do_not_break_a_progress_bar(capsys):
+    logs.configure(0)
+    try:
+        with tqdm(total=3, file=sys.stdout, ascii=True) as bar:
+            bar.update(1)
+            logging.getLogger("voxelmocap.pipeline").info("hello")
+            logging.getLogger("voxelmocap.pipeline").warning("careful")
+            bar.update(1)
+    finally:
+        logs.finish(True)
+    # The bar's line is cleared before each message, which then stands alone on its line (a
+    # plain print would append it to the bar's text: "…1/3 [00:00<…]hello").
+    pieces = re.split(r"[\r\n]", capsys.readouterr().out)
+    assert "hello" in pieces and "warning: careful" in pieces
+
+
+@pytest.mark.parametrize("verbosity, shown", [(-1, ["w"]), (0, ["i", "w"]), (1, ["d", "i", "w"])])
+def test_verbosity_levels(verbosity, shown, capsys):
+    logs.configure(verbosity)
+    try:
+        log = logging.getLogger("voxelmocap.anything")
+        log.debug("d")
+        log.info("i")
+        log.warning("w")
+    finally:
+        logs.finish(True)
+    out = capsys.readouterr().out.splitlines()
+    assert out == [("warning: " if s == "w" else "") + s for s in shown]
+    # unconfigured, the package is silent (a library must not print)
+    logging.getLogger("voxelmocap.anything").warning("nobody sees this")
+    assert capsys.readouterr() == ("", "")
