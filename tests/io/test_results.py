@@ -243,6 +243,7 @@ class Row:
         self.part_scores = np.full((10, 4), float(k))
         self.ess = self.betas = np.full(3, float(k))
         self.seconds = self.log_likelihood = float(k)
+        self.landmark_spread = self.confidence = np.full(15, float(k))
 
 path = sys.argv[1]
 attrs = {"frame_rate": 60.0, "config": "", "seed": 0}
@@ -263,7 +264,8 @@ def _check_prefix(path):
     res = read_result(path)
     n = len(res)
     np.testing.assert_array_equal(res.frames, np.arange(n))
-    for name in PER_FRAME:
+    assert res.observed.dtype == bool and res.observed.all()
+    for name in set(PER_FRAME) - {"observed"}:
         values = getattr(res, name).reshape(n, -1)
         np.testing.assert_array_equal(values, np.repeat(np.arange(n, dtype=float)[:, None],
                                                         values.shape[1], axis=1))
