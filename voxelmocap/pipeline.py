@@ -344,12 +344,27 @@ def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
     if not resume:
         return None
     for key in _RESUME_KEYS:
-        if str(previous.attrs.get(key)) != str(meta[key]):
+        old, new = previous.attrs.get(key), meta[key]
+        if key == "config":  # the [export] table is not tracking: a resumed run may change it
+            old, new = _tracking_config(old), _tracking_config(new)
+        if str(old) != str(new):
             raise InputError(path, f"cannot resume: its {key} differs from this run's "
                                    "(use --overwrite to start again)")
     if len(previous) and previous.checkpoint is None:
         raise InputError(path, "cannot resume: the file has no checkpoint")
     return previous if len(previous) else None  # killed before its first frame: start afresh
+
+
+def _tracking_config(text) -> str:
+    """A stored config's TOML without its ``[export]`` table (unparsable text: unchanged)."""
+    from .io.toml import dumps_toml, parse_toml
+
+    try:
+        data = parse_toml(str(text), "config")
+    except InputError:
+        return str(text)
+    data.pop("export", None)
+    return dumps_toml(data)
 
 
 def _kernels_cached() -> bool:
