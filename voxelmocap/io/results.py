@@ -303,6 +303,8 @@ class ResultWriter:
             "landmark_names": list(LANDMARK_NAMES), "endpoint_names": list(ENDPOINT_NAMES),
             "state_names": list(state_names), "part_names": list(part_names),
             "score_names": list(_SCORE_NAMES), **attrs,
+            # what this writer writes, whatever attrs a converted older file carried
+            "format": FORMAT, "format_version": FORMAT_VERSION,
         }
         with _folder_lock(self.path.parent):
             self._check_target(replace)
