@@ -297,7 +297,6 @@ class ResultWriter:
         if "frame_rate" not in attrs:
             raise ValueError("ResultWriter.start: attrs need the frame_rate")
         header = {
-            "format": FORMAT, "format_version": FORMAT_VERSION,
             "voxelmocap_version": _version(), "created": _utc_now(),
             "length_unit": "mm", "angle_unit": "rad", "coordinate_frame": _COORDINATE_FRAME,
             "landmark_names": list(LANDMARK_NAMES), "endpoint_names": list(ENDPOINT_NAMES),
