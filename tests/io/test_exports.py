@@ -157,3 +157,21 @@ def test_y_up_axes_follow_pose2sim(tracked):
     np.testing.assert_array_equal(y_up[..., 0], world[..., 1])
     np.testing.assert_array_equal(y_up[..., 1], world[..., 2])
     np.testing.assert_array_equal(y_up[..., 2], world[..., 0])
+
+
+def test_track_export_options(walk_dataset, tmp_path, capsys):
+    base = ["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1", "--frames",
+            "1:2", "--layers", "1", "--particles", "20", "--no-progress"]
+    assert main([*base, "--export", "none", "--out", str(tmp_path / "a")]) == 0
+    assert sorted(p.suffix for p in (tmp_path / "a" / "S1").iterdir()) == [".bvh", ".h5", ".xml"]
+    assert main([*base, "--export", "csv", "--smooth", "5", "--out", str(tmp_path / "b")]) == 0
+    assert (tmp_path / "b" / "S1" / "Walking_1_butterworth5Hz.csv").exists()
+    capsys.readouterr()
+    # a cut-off above Nyquist is refused before anything is tracked or written
+    assert main([*base, "--smooth", "45", "--out", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "export.cutoff_hz" in err[0] and "half the frame rate" in err[0]
+    assert not (tmp_path / "c").exists()
+    # --resume may change the exports: they are not tracking
+    assert main([*base, "--resume", "--export", "trc", "--out", str(tmp_path / "a")]) == 0
+    assert (tmp_path / "a" / "S1" / "Walking_1.trc").exists()
