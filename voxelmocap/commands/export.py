@@ -69,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
             check_filter(float(res.attrs.get("frame_rate", 0.0)), args.smooth, args.order,
                          f"{path}: --smooth/--order")
     for path, res in zip(paths, results, strict=True):
+        if not res.attrs.get("complete"):
+            print(f"note: {path} is an unfinished run ({len(res)} frames so far)")
         written = export_result(path, formats, cutoff_hz=args.smooth, order=args.order,
                                 axes=args.axes, out_dir=args.out, result=res)
         for p in written:

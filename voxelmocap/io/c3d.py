@@ -14,8 +14,9 @@ person). Unknown spreads (results before format 3) are written as 1 mm. The came
 
 >>> import numpy as np, tempfile, pathlib
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.c3d"
->>> write_c3d(path, np.zeros((2, 1, 3)), ["head"], frame_rate=60.0, first_frame=1)
-PosixPath(...)
+>>> path = write_c3d(path, np.zeros((2, 1, 3)), ["head"], frame_rate=60.0, first_frame=1)
+>>> path.stat().st_size % 512
+0
 """
 
 from __future__ import annotations

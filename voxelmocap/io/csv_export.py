@@ -14,8 +14,7 @@ reference of named points (``frame``, ``landmark`` or ``marker`` or ``name``, an
 
 >>> import numpy as np, tempfile, pathlib
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.csv"
->>> write_landmarks_csv(path, np.zeros((1, 1, 3)), ["head"], frames=[5], frame_rate=50.0)
-PosixPath(...)
+>>> path = write_landmarks_csv(path, np.zeros((1, 1, 3)), ["head"], frames=[5], frame_rate=50.0)
 >>> path.read_text().splitlines()[1]
 '5,0.080000,head,0.000000,0.000000,0.000000,,,1'
 """

@@ -20,7 +20,7 @@ Pose2Sim's in metres) into millimetres.
 
 >>> import numpy as np, tempfile, pathlib
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.trc"
->>> write_trc(path, np.zeros((2, 1, 3)), ["head"], frame_rate=60.0, frames=[1, 2])
+>>> path = write_trc(path, np.zeros((2, 1, 3)), ["head"], frame_rate=60.0, frames=[1, 2])
 >>> read_trc(path).names
 ['head']
 """
