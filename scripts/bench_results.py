@@ -36,6 +36,8 @@ class Row:
         self.part_scores = rng.random((10, 4))
         self.ess, self.betas = rng.random(6), rng.random(6)
         self.seconds, self.log_likelihood = float(rng.random()), float(rng.normal())
+        self.landmark_spread, self.confidence = rng.random(15) * 50.0, rng.random(15)
+        self.observed = True
 
 
 def one_run(folder: Path, n_frames: int, seed: int) -> np.ndarray:

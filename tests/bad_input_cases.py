@@ -133,6 +133,69 @@ def _rerun_not_rrd(data, tmp):
 def _all_zero_workers(data, tmp):
     return ["track", str(data), "--all", "--workers", "0", "--out", str(tmp / "run"),
             "--no-progress"]
+def _result(tmp) -> Path:
+    """A small finished tracking result (3 frames at 60 Hz) in ``tmp/run/S1/Walking_1.h5``."""
+    from voxelmocap.io.results import TrackResult, write_result
+
+    rng = np.random.default_rng(0)
+    n = 3
+    path = tmp / "run" / "S1" / "Walking_1.h5"
+    write_result(path, TrackResult(
+        frames=np.arange(1, n + 1), state=rng.normal(size=(n, 27)),
+        landmarks=rng.normal(size=(n, 15, 3)) * 500, endpoints=rng.normal(size=(n, 20, 3)),
+        part_scores=rng.random((n, 10, 4)), ess=rng.random((n, 2)), betas=rng.random((n, 2)),
+        seconds=rng.random(n), log_likelihood=rng.normal(size=n),
+        map_state=rng.normal(size=(n, 27)), state_names=[f"s{i}" for i in range(27)],
+        part_names=[f"p{i}" for i in range(10)], attrs={"frame_rate": 60.0, "complete": True}))
+    return path
+
+
+def _reference(tmp, rate=60.0, names=("Head", "Pelvis")) -> Path:
+    from voxelmocap.io.trc import write_trc
+
+    return write_trc(tmp / "ref.trc", np.zeros((3, len(names), 3)), list(names),
+                     frame_rate=rate)
+
+
+def _mapping(tmp, text='[landmarks]\nhead = "Head"\n') -> Path:
+    path = tmp / "map.toml"
+    path.write_text(text)
+    return path
+
+
+def _export(*extra, result=True):
+    def setup(data, tmp):
+        path = _result(tmp) if result else tmp / "run" / "S1" / "Walking_1.h5"
+        return ["export", str(path), *extra]
+    return setup
+
+
+def _export_not_hdf5(data, tmp):
+    path = tmp / "run" / "S1" / "Walking_1.h5"
+    path.parent.mkdir(parents=True)
+    path.write_text("not HDF5")
+    return ["export", str(path)]
+
+
+def _evaluate_reference(make_reference=_reference, make_mapping=_mapping, mapping=True):
+    def setup(data, tmp):
+        argv = ["evaluate", str(_result(tmp)), "--reference", str(make_reference(tmp))]
+        return argv + (["--mapping", str(make_mapping(tmp))] if mapping else [])
+    return setup
+
+
+def _malformed_trc(tmp) -> Path:
+    path = _reference(tmp)
+    lines = path.read_text().splitlines()
+    lines[6] = lines[6].replace("0.000000", "abc", 1)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _not_a_trc(tmp) -> Path:
+    path = tmp / "ref.trc"
+    path.write_text("Frame#,Time\n1,0\n")
+    return path
 
 
 CASES: list[Case] = [
@@ -161,4 +224,31 @@ CASES: list[Case] = [
     Case("track --rerun x.txt (not a Rerun file)", _rerun_not_rrd,
          ("{tmp}/x.txt", "expected a Rerun .rrd file name")),
     Case("track --all --workers 0", _all_zero_workers, ("--workers", "at least 1")),
+    Case("export of a result that does not exist", _export(result=False),
+         ("{tmp}/run/S1/Walking_1.h5", "no such result file or run folder")),
+    Case("export of a file that is not HDF5", _export_not_hdf5,
+         ("{tmp}/run/S1/Walking_1.h5", "cannot read HDF5")),
+    Case("export --format xyz", _export("--format", "trc,xyz"), ("--format", "unknown format 'xyz'")),
+    Case("export --smooth 40 (above Nyquist at 60 Hz)", _export("--smooth", "40"),
+         ("--smooth", "between 0 and half the frame rate")),
+    Case("export --order 3 (odd)", _export("--smooth", "6", "--order", "3"), ("even integer",)),
+    Case("evaluate --reference: file not found",
+         _evaluate_reference(lambda tmp: tmp / "missing.trc"),
+         ("{tmp}/missing.trc", "TRC file not found")),
+    Case("evaluate --reference: TRC with a non-numeric value", _evaluate_reference(_malformed_trc),
+         ("{tmp}/ref.trc", "line 7", "not a number")),
+    Case("evaluate --reference: not a TRC", _evaluate_reference(_not_a_trc),
+         ("{tmp}/ref.trc", "not a TRC file")),
+    Case("evaluate --reference: TRC at another frame rate",
+         _evaluate_reference(lambda tmp: _reference(tmp, rate=100.0)),
+         ("{tmp}/ref.trc", "differs from the result's 60 Hz")),
+    Case("evaluate --reference: mapping names an unknown landmark",
+         _evaluate_reference(make_mapping=lambda tmp: _mapping(tmp, '[landmarks]\nnose = "Head"\n')),
+         ("{tmp}/map.toml", "unknown landmark 'nose'")),
+    Case("evaluate --reference: mapping names a point the reference lacks",
+         _evaluate_reference(make_mapping=lambda tmp: _mapping(
+             tmp, '[landmarks]\npelvis = ["RHip", "LHip"]\n')),
+         ("{tmp}/map.toml", "'RHip' is not a point of ref.trc")),
+    Case("evaluate --reference without --mapping", _evaluate_reference(mapping=False),
+         ("--reference", "needs --mapping")),
 ]

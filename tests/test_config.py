@@ -183,3 +183,17 @@ def test_mutated_config_files_load_or_raise_input_error(tmp_path, cut, junk):
         return
     assert isinstance(cfg.measurement.silhouette, SilhouetteConfig)
     assert config_from_toml(config_to_toml(cfg)) == cfg
+
+
+def test_export_section():
+    from voxelmocap.config import ExportConfig
+
+    cfg = config_from_toml('[export]\nformats = ["c3d"]\ncutoff_hz = 6.0\naxes = "y_up"\n')
+    assert cfg.export == ExportConfig(formats=("c3d",), cutoff_hz=6.0, order=4, axes="y_up")
+    assert config_from_toml(config_to_toml(cfg)) == cfg
+    assert TrackConfig().export.formats == ("trc", "csv") and TrackConfig().export.cutoff_hz is None
+    for text, message in [('formats = ["fbx"]', "unknown format 'fbx'"),
+                          ("cutoff_hz = -1.0", "cutoff_hz' must be > 0"),
+                          ("order = 3", "even integer"), ('axes = "z_up"', "must be one of")]:
+        with pytest.raises(InputError, match=message):
+            config_from_toml(f"[export]\n{text}\n")

@@ -187,7 +187,7 @@ def test_frame_rate_of_image_folders_is_humaneva_i(tmp_path):
 def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
     """`track` killed (SIGKILL) at seeded random moments: the file always reads and holds a
     prefix of the uninterrupted run's frames; --resume then finishes bit-identically, leaving
-    only the three outputs in the folder."""
+    only the outputs (result, XML, BVH, the default TRC and CSV) in the folder."""
     import os
     import signal
     import subprocess
@@ -220,11 +220,12 @@ def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
         assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
                      "--out", str(run), "--resume", *args]) == 0
         resumed = read_result(path)
-        for name in ("frames", "state", "map_state", "landmarks", "log_likelihood", "ess"):
+        for name in ("frames", "state", "map_state", "landmarks", "log_likelihood", "ess",
+                     "landmark_spread", "confidence", "observed"):
             np.testing.assert_array_equal(getattr(resumed, name), getattr(full, name))
         assert resumed.attrs["complete"]
         assert sorted(p.name for p in path.parent.iterdir()) == \
-            ["Walking_1.bvh", "Walking_1.h5", "Walking_1.xml"]
+            ["Walking_1.bvh", "Walking_1.csv", "Walking_1.h5", "Walking_1.trc", "Walking_1.xml"]
 
 
 def test_a_second_track_on_the_same_result_is_refused(walk_dataset, tmp_path, capsys):

@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "info": "info",
     "track": "track",
     "evaluate": "evaluate",
+    "export": "export",
     "groundtruth": "groundtruth",
     "sweep": "sweep",
     "overlay": "overlay",

@@ -2,7 +2,7 @@
 
 Each stage has a frozen dataclass; :class:`TrackConfig` groups them. A TOML file may set any subset
 of the keys (tables ``[measurement]`` with ``[measurement.silhouette]``, ``[likelihood]``,
-``[filter]``, ``[init]``); unknown keys, wrong types and values out of range are refused with an
+``[filter]``, ``[init]``, ``[export]``); unknown keys, wrong types and values out of range are refused with an
 error naming the file and the key, by one validator (:func:`config_from_dict`). Command-line options override
 the file (:func:`with_overrides`), and the resolved configuration is stored with every result
 (:func:`config_to_toml`), so a run can be reproduced and a resumed run checked against it.
@@ -27,6 +27,8 @@ from .grid import MIN_VOXELS_PER_AXIS
 from .io.toml import dumps_toml, parse_toml, read_toml
 
 __all__ = [
+    "EXPORT_FORMATS",
+    "ExportConfig",
     "FilterConfig",
     "InitConfig",
     "LikelihoodConfig",
@@ -245,6 +247,31 @@ class InitConfig:
     settle_steps: int = 0
 
 
+#: Formats ``track`` and ``export`` write (:mod:`voxelmocap.io.exports`).
+EXPORT_FORMATS = ("trc", "c3d", "csv")
+
+
+@dataclass(frozen=True)
+class ExportConfig:
+    """The landmark files ``track`` writes beside each result (``docs/outputs.md``).
+
+    Not part of tracking: a resumed run may change them, and ``voxelmocap export`` rewrites
+    them from a finished result.
+    """
+
+    #: formats written after tracking (``trc``, ``c3d``, ``csv``); ``[]`` writes none. TRC and
+    #: CSV by default: plain text, read by OpenSim / Pose2Sim and by anything, no extra package
+    formats: tuple[str, ...] = ("trc", "csv")
+    #: zero-lag Butterworth low-pass of the exported trajectories (Hz); absent = no filtering
+    #: (the exports equal the result file). 6 Hz lowered μ by 1.8 mm on the benchmark clips
+    #: (docs/benchmarks.md); the result file and ``evaluate`` always keep the raw estimates
+    cutoff_hz: float | None = None
+    order: int = 4  #: order of the zero-lag filter (even: a Butterworth of half of it, run twice)
+    #: ``world``: the calibration's frame (Z up); ``y_up``: OpenSim's Y up, as Pose2Sim writes
+    #: (X ← Y, Y ← Z, Z ← X)
+    axes: str = _choice("world", "y_up", default="world")
+
+
 @dataclass(frozen=True)
 class TrackConfig:
     """Everything a tracking run depends on, apart from the data and the seed."""
@@ -253,6 +280,7 @@ class TrackConfig:
     likelihood: LikelihoodConfig = field(default_factory=LikelihoodConfig)
     filter: FilterConfig = field(default_factory=FilterConfig)
     init: InitConfig = field(default_factory=InitConfig)
+    export: ExportConfig = field(default_factory=ExportConfig)
 
 
 # ---------------------------------------------------------------------- conversion and checks
@@ -382,6 +410,21 @@ def _check_ranges(obj, prefix: str, source) -> None:
         raise InputError(source, "key 'likelihood.variances' must be positive")
     if isinstance(obj, SilhouetteConfig):
         _check_silhouette(obj, prefix, source)
+    if isinstance(obj, ExportConfig):
+        _check_export(obj, prefix, source)
+
+
+def _check_export(obj: ExportConfig, prefix: str, source) -> None:
+    unknown = [f for f in obj.formats if f not in EXPORT_FORMATS]
+    if unknown:
+        raise InputError(source, f"key '{prefix}.formats': unknown format {unknown[0]!r} (known: "
+                                 f"{', '.join(EXPORT_FORMATS)})")
+    if obj.cutoff_hz is not None and not obj.cutoff_hz > 0:
+        raise InputError(source, f"key '{prefix}.cutoff_hz' must be > 0 (leave it out for no "
+                                 "filtering)")
+    if obj.order < 2 or obj.order % 2:
+        raise InputError(source, f"key '{prefix}.order' must be an even integer >= 2, got "
+                                 f"{obj.order}")
 
 
 def _check_measurement(obj: MeasurementConfig, prefix: str, source) -> None:

@@ -7,6 +7,8 @@
 * :func:`evaluate_sequence`: the paper's Table 1 row for one sequence (μ, σ of the per-frame mean
   error, MMTP, MMTA, plus the mean HumanEva ``error()``), skipping frames whose ground truth has a
   disabled endpoint.
+* :func:`evaluate_points`: the same errors against any named 3-D reference (a TRC or CSV mapped
+  onto some of the landmarks), with missing reference values left out.
 """
 
 from __future__ import annotations
@@ -19,7 +21,9 @@ import numpy as np
 from .joints import LANDMARK_ENDPOINTS, endpoints_to_landmarks
 
 __all__ = [
+    "PointScores",
     "SequenceScores",
+    "evaluate_points",
     "evaluate_sequence",
     "humaneva_error",
     "humaneva_error_position_average",
@@ -240,3 +244,72 @@ def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: fl
     per_frame = {"valid": valid, "landmark_errors": errors, "mean_error": mean_error,
                  "mmta": mmta_f, "mmtp": mmtp_f, "humaneva_error": he}
     return scores, per_frame
+
+
+@dataclass(frozen=True)
+class PointScores:
+    """Errors against a named 3-D reference (distances in mm, MMTA in %)."""
+
+    frames: int  #: frames with at least one landmark to compare
+    landmarks: tuple  #: the compared landmarks' names
+    mu_mm: float  #: mean over frames of the frame's mean landmark error
+    sigma_mm: float  #: standard deviation over frames of that mean
+    mmtp_mm: float  #: mean over frames of the matched landmarks' mean error
+    mmta_pct: float  #: mean over frames of the share of landmarks within δ
+    per_landmark_mm: tuple  #: mean error of each landmark over the frames it has (NaN: none)
+    per_landmark_mmta_pct: tuple  #: share of its frames within δ
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def evaluate_points(est, ref, names, *, delta: float = 100.0) -> tuple[PointScores, dict]:
+    """Score estimated landmarks against reference points of the same frames and names.
+
+    NaN in ``ref`` (a marker the reference lacks in a frame) or ``est`` (no estimate) leaves that
+    landmark out of that frame: it is neither matched nor missed. A frame with nothing left is
+    not counted. Otherwise the definitions of :func:`mmta_mmtp` and :func:`evaluate_sequence`.
+
+    Parameters
+    ----------
+    est, ref : (F, M, 3) array_like
+        Estimated and reference positions (mm).
+    names : sequence of str
+        The M landmark names.
+    delta : float
+        MMTA/MMTP threshold (mm).
+
+    Returns
+    -------
+    scores : PointScores
+    per_frame : dict
+        ``errors`` (F, M) (NaN where left out), ``valid`` (F,) bool, ``mean_error`` (F,),
+        ``mmta`` (F,), ``mmtp`` (F,) (NaN for frames not counted).
+    """
+    errors = landmark_errors(est, ref)  # NaN wherever either side is NaN
+    if errors.shape[1] != len(names):
+        raise ValueError(f"{len(names)} names for {errors.shape[1]} landmarks")
+    have = ~np.isnan(errors)
+    n = have.sum(axis=1)
+    valid = n > 0
+    matched = have & (np.nan_to_num(errors, nan=np.inf) < delta)
+    k = matched.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_error = np.where(valid, np.where(have, errors, 0.0).sum(axis=1) / n, np.nan)
+        mmta_f = np.where(valid, 100.0 * k / n, np.nan)
+        mmtp_f = np.where(k > 0, np.where(matched, errors, 0.0).sum(axis=1) / k, np.nan)
+        m = have.sum(axis=0)
+        per_lm = np.where(m > 0, np.where(have, errors, 0.0).sum(axis=0) / m, np.nan)
+        per_lm_mmta = np.where(m > 0, 100.0 * matched.sum(axis=0) / m, np.nan)
+    mu = mean_error[valid]
+    scores = PointScores(
+        frames=int(valid.sum()), landmarks=tuple(names),
+        mu_mm=float(mu.mean()) if len(mu) else float("nan"),
+        sigma_mm=float(mu.std()) if len(mu) else float("nan"),
+        mmtp_mm=float(np.nanmean(mmtp_f)) if np.any(k > 0) else float("nan"),
+        mmta_pct=float(mmta_f[valid].mean()) if valid.any() else float("nan"),
+        per_landmark_mm=tuple(float(v) for v in per_lm),
+        per_landmark_mmta_pct=tuple(float(v) for v in per_lm_mmta),
+    )
+    return scores, {"errors": errors, "valid": valid, "mean_error": mean_error, "mmta": mmta_f,
+                    "mmtp": mmtp_f}

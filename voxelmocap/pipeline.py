@@ -13,7 +13,9 @@ writes
   would; the file is locked while a run writes it;
 * ``RUN/<Subject>/<Action>_<Trial>.xml``: the estimates as body_pose XML (``HUMANEVA.md`` §6);
 * ``RUN/<Subject>/<Action>_<Trial>.bvh``: the tracked skeleton as BVH, at the sequence's frame
-  rate (``Sequence.frame_rate``).
+  rate (``Sequence.frame_rate``);
+* the landmark exports of ``config.export`` (TRC and CSV by default, C3D on request;
+  :mod:`voxelmocap.io.exports`, ``docs/outputs.md``).
 
 Only this module, :mod:`voxelmocap.io` and the command line touch files.
 """
@@ -69,6 +71,7 @@ class TrackOutcome:
     init_method: str
     resumed_from: int  #: frames already done when the run started (0 for a fresh run)
     seconds_per_frame: float
+    export_paths: list = dataclasses.field(default_factory=list)  #: TRC / C3D / CSV written
 
 
 
@@ -190,6 +193,10 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     fps = seq.frame_rate if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise InputError("fps", f"the frame rate must be a finite number > 0, got {fps!r}")
+    if config.export.cutoff_hz is not None and config.export.formats:  # refuse before tracking
+        from .smoothing import check_filter
+
+        check_filter(fps, config.export.cutoff_hz, config.export.order, "export.cutoff_hz")
     meta = {
         "config": config_to_toml(config), "seed": int(seed),
         "dataset": str(Path(dataset_root).resolve()),
@@ -208,7 +215,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                                fps)
             return TrackOutcome(result_path, xml_path, bvh_path, previous.frames,
                                 str(previous.attrs.get("init_method")), len(previous),
-                                float(np.mean(previous.seconds)))
+                                float(np.mean(previous.seconds)),
+                                _landmark_exports(result_path, config, previous))
         resumed_from = 0 if previous is None else len(previous)
         init_method = None
         if resumed_from:
@@ -305,7 +313,8 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     frames_done = np.array(done["frames"])
     _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps)
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
-                        resumed_from, float(np.mean(done["seconds"])))
+                        resumed_from, float(np.mean(done["seconds"])),
+                        _landmark_exports(result_path, config))
 
 
 def _replay(recorder, records) -> None:
@@ -381,12 +390,27 @@ def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
     if not resume:
         return None
     for key in _RESUME_KEYS:
-        if str(previous.attrs.get(key)) != str(meta[key]):
+        old, new = previous.attrs.get(key), meta[key]
+        if key == "config":  # the [export] table is not tracking: a resumed run may change it
+            old, new = _tracking_config(old), _tracking_config(new)
+        if str(old) != str(new):
             raise InputError(path, f"cannot resume: its {key} differs from this run's "
                                    "(use --overwrite to start again)")
     if len(previous) and previous.checkpoint is None:
         raise InputError(path, "cannot resume: the file has no checkpoint")
     return previous if len(previous) else None  # killed before its first frame: start afresh
+
+
+def _tracking_config(text) -> str:
+    """A stored config's TOML without its ``[export]`` table (unparsable text: unchanged)."""
+    from .io.toml import dumps_toml, parse_toml
+
+    try:
+        data = parse_toml(str(text), "config")
+    except InputError:
+        return str(text)
+    data.pop("export", None)
+    return dumps_toml(data)
 
 
 def _kernels_cached() -> bool:
@@ -420,6 +444,15 @@ def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
                   "Partition": source.get("Partition", "Validate")}
     write_body_pose_xml(xml_path, frames, endpoints, attributes=attributes)
     write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
+
+
+def _landmark_exports(result_path, config: TrackConfig, result=None) -> list[Path]:
+    """The TRC / C3D / CSV files of ``config.export``, from the finished result file."""
+    from .io.exports import export_result
+
+    ex = config.export
+    return export_result(result_path, ex.formats, cutoff_hz=ex.cutoff_hz, order=ex.order,
+                         axes=ex.axes, result=result)
 
 
 def _progress(total: int, initial: int, enabled: bool, desc: str):

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -87,6 +87,14 @@ class FrameRecord:
         Log-likelihood of ``state`` (from ``part_scores``).
     likelihood_seconds : float
         The part of ``seconds`` spent in the filter's likelihood evaluations.
+    landmark_spread : (15,) ndarray
+        Weighted RMS distance (mm) of each landmark over the last layer's particles
+        (:func:`voxelmocap.confidence.landmark_spread`); NaN when unknown.
+    confidence : (15,) ndarray
+        Each landmark's confidence in [0, 1] (:func:`voxelmocap.confidence.landmark_confidence`
+        of the spread and ``part_scores``); NaN when unknown.
+    observed : bool
+        Whether a person was seen in the frame (True until absence detection sets it).
     """
 
     frame: int
@@ -100,6 +108,9 @@ class FrameRecord:
     seconds: float
     log_likelihood: float
     likelihood_seconds: float = 0.0
+    landmark_spread: np.ndarray = field(default_factory=lambda: np.full(15, np.nan))
+    confidence: np.ndarray = field(default_factory=lambda: np.full(15, np.nan))
+    observed: bool = True
 
 
 Observer = Callable[[FrameRecord, "BodyTracker"], None]
@@ -454,6 +465,7 @@ class BodyTracker:
             Its synchronised number (default: the filter's step count, 1-based).
         """
         from .body import joints_to_endpoints
+        from .confidence import landmark_confidence, landmark_spread
         from .likelihood import log_likelihood_from_scores, part_scores
 
         if not self.initialised:
@@ -468,6 +480,7 @@ class BodyTracker:
         # joints picked by index); the part scores run their own inside the likelihood kernel.
         joints = self.model.forward(est).joints
         scores = part_scores(observation, self.model, est)[0]
+        spread = landmark_spread(self.model.forward(pf.particles).joints, pf.weights)
         record = FrameRecord(
             frame=int(pf.frame if frame is None else frame),
             state=est[0],
@@ -480,6 +493,8 @@ class BodyTracker:
             seconds=time.perf_counter() - t0,
             log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)),
             likelihood_seconds=spent[0],
+            landmark_spread=spread,
+            confidence=landmark_confidence(spread, scores, self.model.part_names),
         )
         for observer in self.observers:
             observer(record, self)

@@ -243,6 +243,7 @@ class Row:
         self.part_scores = np.full((10, 4), float(k))
         self.ess = self.betas = np.full(3, float(k))
         self.seconds = self.log_likelihood = float(k)
+        self.landmark_spread = self.confidence = np.full(15, float(k))
 
 path = sys.argv[1]
 attrs = {"frame_rate": 60.0, "config": "", "seed": 0}
@@ -263,7 +264,8 @@ def _check_prefix(path):
     res = read_result(path)
     n = len(res)
     np.testing.assert_array_equal(res.frames, np.arange(n))
-    for name in PER_FRAME:
+    assert res.observed.dtype == bool and res.observed.all()
+    for name in set(PER_FRAME) - {"observed"}:
         values = getattr(res, name).reshape(n, -1)
         np.testing.assert_array_equal(values, np.repeat(np.arange(n, dtype=float)[:, None],
                                                         values.shape[1], axis=1))
@@ -320,3 +322,35 @@ def test_two_fresh_writers_race_for_one_result(tmp_path):
         second.start(Row(res, 0), **args)
     second.close()
     assert len(read_result(path)) == 1
+
+
+def test_format_2_results_still_read(tmp_path):
+    """A result written before format 3 (no confidence): unknown spread and confidence,
+    every frame observed; resuming it writes format 3 with those rows carried over."""
+    import h5py
+
+    res = make_result()
+    path = tmp_path / "S1" / "Walking_1.h5"
+    write_result(path, res)
+    with h5py.File(path, "r+") as f:  # make it what format 2 wrote
+        for name in ("landmark_spread", "confidence", "observed"):
+            del f[name]
+        f.attrs["format_version"] = 2
+    back = read_result(path)
+    assert np.isnan(back.landmark_spread).all() and back.landmark_spread.shape == (4, 15)
+    assert np.isnan(back.confidence).all() and back.observed.all()
+    np.testing.assert_array_equal(back.landmarks, res.landmarks)
+    write_result(tmp_path / "again.h5", back)
+    again = read_result(tmp_path / "again.h5")
+    assert again.attrs["format_version"] == 3 and np.isnan(again.confidence).all()
+
+
+def test_format_3_without_its_datasets_is_damaged(tmp_path):
+    import h5py
+
+    path = tmp_path / "r.h5"
+    write_result(path, make_result())
+    with h5py.File(path, "r+") as f:
+        del f["confidence"]
+    with pytest.raises(InputError, match="no 'confidence' dataset"):
+        read_result(path)

@@ -50,6 +50,12 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--resume", action="store_true", help="continue an interrupted run")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing result")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--export", metavar="FORMATS",
+                        help="landmark files to write beside the result: comma-separated of trc, "
+                             "c3d, csv, or none (default: [export] formats, trc,csv)")
+    parser.add_argument("--smooth", type=float, metavar="HZ",
+                        help="zero-lag Butterworth cut-off for those files (default: none; the "
+                             "result file always holds the raw estimates)")
     parser.add_argument("--out", required=True, help="run folder RUN")
     parser.set_defaults(run=run, log_folder=lambda args: args.out)
 
@@ -59,7 +65,14 @@ def resolve_config(args):
     from ..config import TrackConfig, load_config, with_overrides
 
     config = load_config(args.config) if getattr(args, "config", None) else TrackConfig()
+    formats = getattr(args, "export", None)
+    if formats is not None:
+        from ..io.exports import parse_formats
+
+        formats = list(parse_formats(formats, "--export"))
     return with_overrides(config, **{
+        "export.formats": formats,
+        "export.cutoff_hz": getattr(args, "smooth", None),
         "filter.layers": getattr(args, "layers", None),
         "filter.particles": getattr(args, "particles", None),
         "filter.strategy": getattr(args, "strategy", None),
@@ -107,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
     logger.info(f"results: {outcome.result_path}")
     logger.info(f"         {outcome.xml_path}")
     logger.info(f"         {outcome.bvh_path}")
+    for path in outcome.export_paths:
+        logger.info(f"         {path}")
     if recorded is not None:
         logger.info(f"recording: {recorded}")
     elif recorder is not None:

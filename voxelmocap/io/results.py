@@ -7,6 +7,9 @@
   (mm, rad; names in ``state_names``), ``landmarks`` (F, 15, 3) mm, ``endpoints`` (F, 20, 3) mm,
   ``part_scores`` (F, n_parts, 4) of the estimate (Out, DO, Empty, Surf), ``ess`` and ``betas``
   (F, L) per annealing layer, ``seconds`` (F,) per frame, ``log_likelihood`` (F,);
+  ``landmark_spread`` (F, 15) mm and ``confidence`` (F, 15) in [0, 1] per landmark
+  (:mod:`voxelmocap.confidence`), ``observed`` (F,) uint8 (1: a person was seen; format 3 on —
+  a format-2 file reads as NaN spread and confidence and every frame observed);
 * ``state_names`` and ``part_names``: UTF-8 string datasets;
 * file attributes: ``format`` / ``format_version``, ``voxelmocap_version``, ``created`` (UTC, ISO
   8601), ``length_unit`` ``"mm"``, ``angle_unit`` ``"rad"``, ``coordinate_frame`` (Z up, floor at
@@ -60,7 +63,9 @@ __all__ = ["FORMAT", "FORMAT_VERSION", "PER_FRAME", "ResultWriter", "TrackResult
            "write_result"]
 
 FORMAT = "voxelmocap tracking result"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
+#: Datasets added in format 3, and what an older file reads as (see :class:`TrackResult`).
+_ADDED_IN_3 = ("landmark_spread", "confidence", "observed")
 
 #: Per-frame datasets: name → (units, description).
 PER_FRAME: dict[str, tuple[str, str]] = {
@@ -76,8 +81,18 @@ PER_FRAME: dict[str, tuple[str, str]] = {
     "seconds": ("s", "wall time of the frame: measurement, initialisation and filter"),
     "log_likelihood": ("1", "log-likelihood of the estimate (paper 002 eqs 7-9)"),
     "map_state": ("mm (translation), rad (angles)", "the particle of largest last-layer weight"),
+    "landmark_spread": ("mm", "weighted RMS distance of each landmark over the last layer's "
+                        "particles (NaN: unknown)"),
+    "confidence": ("1", "confidence of each landmark in [0, 1]: voxel support of its parts x "
+                   "P(error < 100 mm) for the particles' spread (voxelmocap.confidence)"),
+    "observed": ("1", "1 when a person was seen in the frame, 0 when not (then the estimate "
+                 "is the filter's prediction)"),
 }
+#: What a record without the format-3 attributes (e.g. one made before them) writes.
+_ROW_DEFAULTS = {"landmark_spread": np.full(15, np.nan), "confidence": np.full(15, np.nan),
+                 "observed": 1}
 _INT_ROWS = {"frames"}
+_UINT8_ROWS = {"observed"}
 _CHUNK_ROWS = 64  # rows per chunk: a few kB per dataset, rewritten at most once per frame
 _STR = h5py.string_dtype("utf-8")
 _LOCKING = False  # this module's own flock guards the file; HDF5's would block its readers
@@ -108,6 +123,21 @@ class TrackResult:
     part_names: list = field(default_factory=list)
     attrs: dict = field(default_factory=dict)
     checkpoint: dict | None = None
+    #: (F, 15) mm; NaN when unknown (results before format 3)
+    landmark_spread: np.ndarray | None = None
+    #: (F, 15) in [0, 1]; NaN when unknown
+    confidence: np.ndarray | None = None
+    #: (F,) bool; all True when unknown
+    observed: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.frames)
+        if self.landmark_spread is None:
+            self.landmark_spread = np.full((n, 15), np.nan)
+        if self.confidence is None:
+            self.confidence = np.full((n, 15), np.nan)
+        self.observed = (np.ones(n, dtype=bool) if self.observed is None
+                         else np.asarray(self.observed, dtype=bool))
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -267,12 +297,13 @@ class ResultWriter:
         if "frame_rate" not in attrs:
             raise ValueError("ResultWriter.start: attrs need the frame_rate")
         header = {
-            "format": FORMAT, "format_version": FORMAT_VERSION,
             "voxelmocap_version": _version(), "created": _utc_now(),
             "length_unit": "mm", "angle_unit": "rad", "coordinate_frame": _COORDINATE_FRAME,
             "landmark_names": list(LANDMARK_NAMES), "endpoint_names": list(ENDPOINT_NAMES),
             "state_names": list(state_names), "part_names": list(part_names),
             "score_names": list(_SCORE_NAMES), **attrs,
+            # what this writer writes, whatever attrs a converted older file carried
+            "format": FORMAT, "format_version": FORMAT_VERSION,
         }
         with _folder_lock(self.path.parent):
             self._check_target(replace)
@@ -322,10 +353,11 @@ class ResultWriter:
         n = 0 if previous is None else len(previous)
         for name, (units, description) in PER_FRAME.items():
             if template is not None:
-                shape = np.shape(getattr(template, "frame" if name == "frames" else name))
+                shape = np.shape(_row(template, name))
             else:
                 shape = np.shape(getattr(previous, name))[1:]
-            dtype = np.int64 if name in _INT_ROWS else np.float64
+            dtype = np.int64 if name in _INT_ROWS else np.uint8 if name in _UINT8_ROWS \
+                else np.float64
             rows = np.empty((n,) + shape, dtype) if previous is None else np.asarray(
                 getattr(previous, name), dtype=dtype).reshape((n,) + shape)
             d = f.create_dataset(name, data=rows, maxshape=(None,) + shape,
@@ -367,7 +399,7 @@ class ResultWriter:
         for name in PER_FRAME:
             d = f[name]
             d.resize(n + 1, axis=0)
-            d[n] = getattr(record, "frame" if name == "frames" else name)
+            d[n] = _row(record, name)
         slot = -1  # without a new state, no checkpoint matches the frames any more
         if checkpoint is not None:
             slot = 1 if self._slot == 0 else 0  # never overwrite the committed state
@@ -386,6 +418,13 @@ class ResultWriter:
         if self._fd is not None:
             os.close(self._fd)
             self._fd = None
+
+
+def _row(record, name: str):
+    """A record's row of dataset ``name`` (``frame`` for ``frames``; defaults for format 3's)."""
+    if name in _ROW_DEFAULTS:
+        return getattr(record, name, _ROW_DEFAULTS[name])
+    return getattr(record, "frame" if name == "frames" else name)
 
 
 def _write_blob(d: h5py.Dataset, data: np.ndarray) -> None:
@@ -422,7 +461,8 @@ def _check_shapes(path, data: dict) -> None:
     expected = {"frames": (n,), "state": (n, None), "landmarks": (n, 15, 3),
                 "endpoints": (n, 20, 3), "part_scores": (n, None, 4), "ess": (n, None),
                 "betas": (n, None), "seconds": (n,), "log_likelihood": (n,),
-                "map_state": (n, None)}
+                "map_state": (n, None), "landmark_spread": (n, 15), "confidence": (n, 15),
+                "observed": (n,)}
     for name, shape in expected.items():
         got = np.shape(data[name])
         if len(got) != len(shape) or any(e is not None and g != e
@@ -503,21 +543,30 @@ def read_result(path) -> TrackResult:
 def _read(path: Path, f: h5py.File) -> TrackResult:
     """The committed content of an open result file (see :func:`read_result`)."""
     _identify(path, f)
-    missing = [n for n in (*PER_FRAME, "state_names", "part_names", "commit") if n not in f]
+    version = int(f.attrs.get("format_version", 0))
+    optional = _ADDED_IN_3 if version < 3 else ()
+    missing = [n for n in (*PER_FRAME, "state_names", "part_names", "commit")
+               if n not in f and n not in optional]
     if missing:
         raise InputError(path, f"damaged result file (no {missing[0]!r} dataset)")
     commit = np.asarray(f["commit"][()])
     if commit.shape != (3,) or commit.dtype.kind not in "iu":
         raise InputError(path, "damaged result file (bad 'commit' record)")
     n, slot, complete = (int(v) for v in commit)
-    lengths = {name: f[name].shape[0] if f[name].shape else 0 for name in PER_FRAME}
+    present = [name for name in PER_FRAME if name in f]
+    lengths = {name: f[name].shape[0] if f[name].shape else 0 for name in present}
     short = [name for name, length in lengths.items() if length < n]
     if n < 0 or short or slot not in (-1, 0, 1):
         raise InputError(path, f"damaged result file (commit says {n} frames, slot {slot}"
                                + (f"; {short[0]!r} has {lengths[short[0]]}" if short else "")
                                + ")")
-    data = {name: f[name][:n] for name in PER_FRAME}
+    data = {name: f[name][:n] for name in present}
+    if version < 3:  # format 2 had no confidence: unknown, and every frame counted as observed
+        data.setdefault("landmark_spread", np.full((n, 15), np.nan))
+        data.setdefault("confidence", np.full((n, 15), np.nan))
+        data.setdefault("observed", np.ones(n, dtype=np.uint8))
     _check_shapes(path, data)
+    data["observed"] = np.asarray(data["observed"]).astype(bool)
     checkpoint = None
     if slot >= 0:
         try:
