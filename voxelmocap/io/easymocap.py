@@ -40,8 +40,10 @@ class _Storage:
             raise InputError(path, "calibration file not found")
         try:
             self.fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-        except cv2.error as exc:
-            raise InputError(path, f"not an OpenCV YAML file ({_first_line(exc)})") from None
+        except (cv2.error, SystemError) as exc:
+            # OpenCV 5's binding reports a parse error as a SystemError wrapping the cv2.error.
+            cause = exc.__cause__ if isinstance(exc, SystemError) and exc.__cause__ else exc
+            raise InputError(path, f"not an OpenCV YAML file ({_first_line(cause)})") from None
         if not self.fs.isOpened():
             raise InputError(path, "cannot read as an OpenCV YAML file")
 
@@ -67,7 +69,7 @@ class _Storage:
             return None
         try:
             value = node.mat()
-        except cv2.error:
+        except (cv2.error, SystemError):
             value = None
         if value is None:
             raise InputError(self.path, f"{key!r} is not an opencv-matrix")
