@@ -38,6 +38,7 @@ def write_frames(path: Path, images: list[np.ndarray], fps: float, video: str) -
             assert cv2.imwrite(str(path / f"frame_{k:06d}.png"), image)
         return path
     path = path.with_suffix(".mp4")
+    path.parent.mkdir(parents=True, exist_ok=True)
     h, w = images[0].shape[:2]
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w, h))
     assert writer.isOpened()
