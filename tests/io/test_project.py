@@ -1,5 +1,6 @@
 """Pose2Sim / anipose / EasyMocap projects: discovery, camera matching, sizes, trials, bad input."""
 
+import dataclasses
 from pathlib import Path
 
 import cv2
@@ -276,3 +277,20 @@ def test_video_decoder_reads_mp4_mov_and_avi(tmp_path):
     (tmp_path / "notes.txt").write_text("x")
     (tmp_path / "empty").mkdir()
     assert list(find_videos(tmp_path)) == ["v_avi", "v_mov", "v_mp4"]
+
+
+def test_world_frame_notes():
+    from voxelmocap.camera import Rig
+    from voxelmocap.io.project import world_frame_notes
+
+    rig = read_rig(default_rig_path())
+    assert world_frame_notes(rig) == []
+    # the same cameras in a Y-up world (x' = Q x): R' = R Qᵀ, T' = T
+    Q = np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]])
+    y_up = Rig(dataclasses.replace(c, R=c.R @ Q.T) for c in rig)
+    (note,) = world_frame_notes(y_up)
+    assert "looks +Y-up" in note
+    np.testing.assert_allclose(y_up["C1"].project(_points() @ Q.T), rig["C1"].project(_points()),
+                               atol=1e-6)
+    low = Rig(dataclasses.replace(c, T=c.T + c.R @ np.array([0, 0, 1400.0])) for c in rig)
+    assert "floor may not be at Z = 0" in world_frame_notes(low)[0]

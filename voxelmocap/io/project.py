@@ -23,7 +23,10 @@ What is assumed is said in the sequence's ``notes`` (``voxelmocap info`` prints 
 * image size: a video a few columns or rows (≤ :data:`SIZE_TOLERANCE`) narrower or wider than
   the calibration is taken as the calibrated image cropped or padded on the right / bottom (the
   principal point is kept); a larger difference is refused;
-* calibration units: see :mod:`voxelmocap.io.calibration_files`.
+* calibration units: see :mod:`voxelmocap.io.calibration_files`;
+* world frame: the tracker assumes +Z up with the floor at Z = 0 (mm); when the cameras' mean up
+  direction is far from +Z, or the cameras stand near Z = 0, a note says so
+  (:func:`world_frame_notes`); nothing is re-expressed.
 """
 
 from __future__ import annotations
@@ -42,7 +45,8 @@ from .calibration_files import calibration_format, find_calibration, read_calibr
 from .sequence import SynchronisedVideos
 from .video import VideoStream, find_videos, natural_key
 
-__all__ = ["SIZE_TOLERANCE", "Project", "ProjectSequence", "match_cameras", "project_kind"]
+__all__ = ["SIZE_TOLERANCE", "Project", "ProjectSequence", "match_cameras", "project_kind",
+           "reconcile_size", "world_frame_notes"]
 
 #: Largest difference (pixels, per dimension) between a video's size and its calibration's that
 #: is taken as a crop or pad on the right / bottom (codecs pad to multiples of 16).
@@ -187,6 +191,39 @@ def reconcile_size(camera, video_size: tuple[int, int], video: Path, *, unsized:
         return camera.with_size((w, h))
     raise InputError(video, f"frame size {w}x{h} cannot be the calibration's {cw}x{ch} "
                             f"({camera.source}): more than {SIZE_TOLERANCE} pixels apart")
+
+
+# ---------------------------------------------------------------------- world frame
+#: Largest angle (degrees) between the cameras' mean up direction and +Z for a Z-up world.
+UP_TOLERANCE_DEG = 30.0
+_AXES = {"+X": (1, 0, 0), "-X": (-1, 0, 0), "+Y": (0, 1, 0), "-Y": (0, -1, 0), "+Z": (0, 0, 1),
+         "-Z": (0, 0, -1)}
+
+
+def world_frame_notes(rig) -> list[str]:
+    """What the cameras say of the world frame, when it is not what the tracker assumes.
+
+    The tracker assumes +Z up with the floor at Z = 0 (mm). A camera filming upright has its
+    image's up (−y of the camera) roughly up in the world; the mean over the cameras is the
+    world's up within the cameras' tilts, which cancel for cameras around the scene.
+    """
+    ups = np.array([-cam.R[1] for cam in rig])
+    mean = ups.mean(axis=0)
+    norm = np.linalg.norm(mean)
+    if norm < 1e-6:
+        return ["the cameras' up directions cancel out: cannot tell which world axis is up"]
+    mean /= norm
+    angle = float(np.degrees(np.arccos(np.clip(mean[2], -1.0, 1.0))))
+    if angle <= UP_TOLERANCE_DEG:
+        heights = [cam.center[2] for cam in rig]
+        if min(heights) < 300.0:
+            return [f"the cameras stand at Z = {min(heights):.0f}…{max(heights):.0f} mm: the "
+                    "floor may not be at Z = 0 (the tracker assumes it is)"]
+        return []
+    axis = max(_AXES, key=lambda k: float(np.dot(_AXES[k], mean)))
+    return [f"the world frame looks {axis}-up (the cameras' mean up direction is "
+            f"({mean[0]:.2f}, {mean[1]:.2f}, {mean[2]:.2f}), {angle:.0f}° from +Z): the tracker "
+            "assumes +Z up with the floor at Z = 0, re-express the calibration in such a frame"]
 
 
 # ---------------------------------------------------------------------- trials
@@ -463,6 +500,7 @@ class ProjectSequence(SynchronisedVideos):
             stream = self._streams[name]
             cameras.append(reconcile_size(self._full_rig[name], stream.frame_size(), stream.path,
                                           unsized=name in self._unsized, notes=self.notes))
+        self.notes.extend(world_frame_notes(cameras))
         counts = self.video_frame_counts()
         if len(set(counts.values())) > 1:
             self.notes.append("the videos have different lengths ("
