@@ -294,3 +294,36 @@ def test_world_frame_notes():
                                atol=1e-6)
     low = Rig(dataclasses.replace(c, T=c.T + c.R @ np.array([0, 0, 1400.0])) for c in rig)
     assert "floor may not be at Z = 0" in world_frame_notes(low)[0]
+
+
+def test_import_writes_the_humaneva_layout_losslessly(tmp_path, capsys):
+    from voxelmocap.cli import main
+
+    root = _pose2sim(tmp_path / "My_Trial2", names=("cam_01", "cam_02", "cam_03"),
+                     sizes={"cam_03": (636, 480)})
+    assert main(["import", str(root), "--out", str(tmp_path / "data"), "--no-progress"]) == 0
+    assert "--subject S1 --sequence MyTrial_1" in capsys.readouterr().out
+    assert main(["info", str(tmp_path / "data")]) == 0
+    project = open_sequence(root)
+    imported = Dataset(tmp_path / "data").sequence("S1", "MyTrial_1")
+    assert imported.camera_names == ["cam01", "cam02", "cam03"]
+    assert imported.n_frames == project.n_frames and imported.frame_rate == 50.0
+    assert imported.rig["cam03"].size == (636, 480)
+    for cam, he in zip(project.camera_names, imported.camera_names, strict=True):
+        np.testing.assert_allclose(imported.rig[he].project(_points()),
+                                   project.rig[cam].project(_points()), atol=1e-6)
+    for (_, a), (_, b) in zip(project.frames(), imported.frames(), strict=True):
+        for cam, he in zip(project.camera_names, imported.camera_names, strict=True):
+            np.testing.assert_array_equal(a[cam], b[he])
+
+
+def test_info_on_a_project(tmp_path, capsys):
+    from voxelmocap.cli import main
+
+    root = _pose2sim(tmp_path / "p", sizes={"cam02": (640, 472)})
+    assert main(["info", str(root)]) == 0
+    out = capsys.readouterr().out
+    assert "pose2sim project" in out and "p: 3 frames at 50 Hz, cameras cam01, cam02, cam03" in out
+    assert "note: cam02: the video is 640x472, the calibration 640x480: taken as the calibrated " \
+           "image with 8 row(s) cropped at the bottom (principal point kept)" in out
+    assert out.rstrip().endswith("all files read are valid")
