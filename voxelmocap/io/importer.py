@@ -26,6 +26,7 @@ import cv2
 from ..camera import Rig
 from ..errors import InputError
 from ._atomic import ensure_output_dir
+from .video import VideoStream
 
 __all__ = ["ImportOutcome", "humaneva_name", "import_sequence"]
 
@@ -52,25 +53,43 @@ def humaneva_name(name: str, what: str, *, letters_only: bool = False) -> str:
     return out
 
 
+class _LosslessVideo:
+    """An FFV1 AVI written to a temporary name and renamed when complete (deleted on failure)."""
+
+    def __init__(self, path: Path, fps: float, size):
+        self.path = path
+        self.tmp = path.with_name(f".{path.stem}.partial.avi")
+        self.writer = cv2.VideoWriter(str(self.tmp), cv2.VideoWriter_fourcc(*_LOSSLESS),
+                                      float(fps), tuple(size))
+        self.count = 0
+        if not self.writer.isOpened():
+            self.tmp.unlink(missing_ok=True)
+            raise InputError(path, f"OpenCV cannot write {_LOSSLESS} video here")
+
+    def write(self, image) -> None:
+        if image.ndim == 2:
+            image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+        self.writer.write(image)
+        self.count += 1
+
+    def close(self, ok: bool) -> None:
+        self.writer.release()
+        if ok:
+            self.tmp.replace(self.path)
+        else:
+            self.tmp.unlink(missing_ok=True)
+
+
 def _write_avi(path: Path, frames, fps: float, size) -> int:
-    tmp = path.with_name(f".{path.stem}.partial.avi")
-    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*_LOSSLESS), float(fps), tuple(size))
-    if not writer.isOpened():
-        raise InputError(path, f"OpenCV cannot write {_LOSSLESS} video here")
-    count = 0
+    video = _LosslessVideo(path, fps, size)
+    ok = False
     try:
         for image in frames:
-            if image.ndim == 2:
-                image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-            writer.write(image)
-            count += 1
-        writer.release()
-        tmp.replace(path)
-    except BaseException:
-        writer.release()
-        tmp.unlink(missing_ok=True)
-        raise
-    return count
+            video.write(image)
+        ok = True
+    finally:
+        video.close(ok)
+    return video.count
 
 
 def import_sequence(seq, out, *, subject: str = "S1", action: str | None = None,
@@ -120,30 +139,35 @@ def import_sequence(seq, out, *, subject: str = "S1", action: str | None = None,
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=seq.n_frames * len(rig), desc=f"import {seq.name}", unit="image")
+        bar = tqdm(total=seq.n_frames, desc=f"import {seq.name}", unit="frame")
+    # One pass over the frames, every camera's video open at once: each frame is decoded once.
+    videos = {}
+    ok = False
     try:
         for cam in rig:
-            he = mapping[cam.name]
-
-            def frames(cam=cam):
-                for _, images in seq.frames():
-                    if bar is not None:
-                        bar.update(1)
-                    yield images[cam.name]
-
-            n = _write_avi(image_dir / f"{name}_({he}).avi", frames(), fps, cam.size)
-            write_ofs(sync_dir / f"{name}_({he}).ofs", 1, 1, 1)
-            for k, path in enumerate(seq.background_paths(cam.name), start=1):
-                from .video import VideoStream
-
-                stream = VideoStream(path, gray=False)
-                bdir = root / "Background"
-                bdir.mkdir(exist_ok=True)
-                _write_avi(bdir / f"Background_{k}_({he}).avi",
-                           (im for _, im in stream.read(range(stream.n_frames))), fps, cam.size)
+            videos[cam.name] = _LosslessVideo(image_dir / f"{name}_({mapping[cam.name]}).avi", fps,
+                                              cam.size)
+        for _, images in seq.frames():
+            for cam_name, video in videos.items():
+                video.write(images[cam_name])
+            if bar is not None:
+                bar.update(1)
+        ok = True
     finally:
+        for video in videos.values():
+            video.close(ok)
         if bar is not None:
             bar.close()
+    n = seq.n_frames
+    for cam in rig:
+        he = mapping[cam.name]
+        write_ofs(sync_dir / f"{name}_({he}).ofs", 1, 1, 1)
+        for k, path in enumerate(seq.background_paths(cam.name), start=1):
+            stream = VideoStream(path, gray=False)
+            bdir = root / "Background"
+            bdir.mkdir(exist_ok=True)
+            _write_avi(bdir / f"Background_{k}_({he}).avi",
+                       (im for _, im in stream.read(range(stream.n_frames))), fps, cam.size)
     log(f"imported {seq.name} as {subject}/{name}: {n} frames, cameras "
         + ", ".join(f"{k} → {v}" if k != v else k for k, v in mapping.items()))
     return ImportOutcome(root, subject, name, mapping, n)

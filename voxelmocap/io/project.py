@@ -507,6 +507,7 @@ class ProjectSequence(SynchronisedVideos):
                               + ", ".join(f"{c} {n}" for c, n in counts.items())
                               + f"): taken as starting together, the first {min(counts.values())} "
                                 "frames are used")
+        _ = self.frame_rate  # its assumptions are notes too: all of them exist once the rig does
         return Rig(cameras)
 
     def check_video_sizes(self) -> None:
