@@ -37,7 +37,7 @@ from ._atomic import atomic_write_text
 from ._files import read_text_file
 from .body_pose_xml import BodyPoseSequence, read_body_pose_xml, write_body_pose_xml
 from .calibration import read_rig
-from .sequence import SynchronisedVideos
+from .synchronised import SynchronisedVideos
 from .video import VideoStream as _VideoStream
 
 __all__ = [
