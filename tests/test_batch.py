@@ -96,7 +96,7 @@ def test_all_refuses_single_sequence_options(three, tmp_path, capsys):
     for extra, message in ((["--all", "--subject", "S1"], "--subject: not with --all"),
                            (["--workers", "2", "--subject", "S1", "--sequence", "Walking_1"],
                             "--workers: only with --all"),
-                           ([], "--subject: required (or --all for every sequence)")):
+                           ([], "needs --subject and --sequence")):
         assert main(["track", str(three), "--out", str(tmp_path / "r"), *extra]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and message in err[0], err

@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "synth": "synth",
     "info": "info",
+    "import": "import_",
     "track": "track",
     "evaluate": "evaluate",
     "export": "export",

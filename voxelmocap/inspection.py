@@ -53,9 +53,9 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
         Not exactly one matching result, unreadable data, an output that is not a video name or
         cannot be written, a frame rate that is not positive.
     """
-    from .io.humaneva import Dataset
     from .io.reports import find_result_files
     from .io.results import read_result
+    from .io.sequence import open_sequence
     from .io.video_writer import VideoWriter, check_video_path
     from .joints import endpoints_to_landmarks
     from .pipeline import body_model_for
@@ -71,7 +71,7 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
                                   "--subject and --sequence")
     path = files[0]
     result = read_result(path)
-    seq = Dataset(dataset_root).sequence(path.parent.name, path.stem, cameras=[camera])
+    seq = open_sequence(dataset_root, path.parent.name, path.stem, cameras=[camera])
     cam = seq.rig[camera]
     gt = seq.ground_truth()
     model, _ = body_model_for(seq, gt)

@@ -190,7 +190,7 @@ class DumpOutcome:
 def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
                   config: TrackConfig | None = None, frames: str | None = None, cameras=None,
                   masks: bool = False, ply_dir=None, ply_points: bool = False,
-                  progress: bool = True, log=None) -> DumpOutcome:
+                  progress: bool = True, log=None, trial: str | None = None) -> DumpOutcome:
     """Measure the frames of one sequence and write every volume to a voxel dump.
 
     Parameters
@@ -217,6 +217,9 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
         Show a progress bar.
     log : callable, optional
         Also receives every one-line message (they go to the logger in any case).
+    trial : str, optional
+        Project trial (a Pose2Sim / anipose / EasyMocap project, :func:`~voxelmocap.io.sequence.
+        open_sequence`; default its only trial).
 
     Returns
     -------
@@ -230,7 +233,7 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     """
     from .config import config_to_toml
     from .frames import parse_frame_range
-    from .io.humaneva import Dataset
+    from .io.sequence import open_sequence
     from .io.voxels import VoxelDumpWriter, write_ply
 
     config = config or TrackConfig()
@@ -242,7 +245,7 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     ply_dir = Path(ply_dir) if ply_dir is not None else None
     if ply_dir is not None and ply_dir.exists() and not ply_dir.is_dir():
         raise InputError(ply_dir, "exists and is not a folder")
-    seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
+    seq = open_sequence(dataset_root, subject, sequence, trial=trial, cameras=cameras)
     for problem in seq.problems:  # cameras the data set has but this run cannot use
         emit(logger, log, problem, logging.WARNING)
     selected = parse_frame_range(frames, seq.frame_numbers) if frames else seq.frame_numbers

@@ -12,7 +12,10 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "track",
         help="track one sequence: silhouettes → voxels → annealed particle filter → poses",
-        description="Track one HumanEva-layout sequence. Writes RUN/<Subject>/<Action>_<Trial>.h5 "
+        description="Track one sequence of a HumanEva-layout data set (--subject, --sequence) or "
+                    "one trial of a Pose2Sim, anipose or EasyMocap project (--trial when it has "
+                    "several; see docs/projects.md). Writes RUN/<Subject>/<Action>_<Trial>.h5 "
+                    "(a project: RUN/<trial>/<trial>.h5) "
                     "(states, landmarks, endpoints, per-part scores, ESS, timing, config), the "
                     "body_pose XML of the estimates and a BVH of the tracked skeleton (at the "
                     "video's frame rate). Every frame is committed to the result file with the "
@@ -23,10 +26,14 @@ def add_parser(subparsers) -> None:
                     "done, skipped and failed (exit code 1 if any failed). Messages are also "
                     "appended to RUN/voxelmocap.log.",
     )
-    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
-    parser.add_argument("--subject", help="e.g. S1 (required unless --all)")
-    parser.add_argument("--sequence", help="<Action>_<Trial>, e.g. Walking_1 (required unless "
-                                           "--all)")
+    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …) "
+                                        "or a Pose2Sim / anipose / EasyMocap project folder")
+    parser.add_argument("--subject", help="HumanEva layout: e.g. S1 (required unless --all)")
+    parser.add_argument("--sequence", help="HumanEva layout: <Action>_<Trial>, e.g. Walking_1 "
+                                           "(required unless --all)")
+    parser.add_argument("--trial", help="project: the trial to track (default: the only one)")
+    parser.add_argument("--calibration", help="project: a calibration file (.toml, .qca.txt, "
+                                              "intri.yml) instead of the project's own")
     parser.add_argument("--all", action="store_true",
                         help="track every sequence with videos of the data set; finished ones "
                              "are skipped, interrupted ones resumed")
@@ -91,9 +98,6 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--resume", "not needed with --all: interrupted sequences are "
                                          "resumed, finished ones skipped")
         return _run_all(args)
-    for name in ("subject", "sequence"):
-        if not getattr(args, name):
-            raise InputError(f"--{name}", "required (or --all for every sequence)")
     for name in ("scheduler", "workers"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}", "only with --all")
@@ -110,7 +114,8 @@ def run(args: argparse.Namespace) -> int:
         outcome = track_sequence(args.dataset, args.subject, args.sequence, args.out,
                                  config=config, frames=args.frames, cameras=cameras,
                                  seed=args.seed, resume=args.resume, overwrite=args.overwrite,
-                                 progress=not args.no_progress, recorder=recorder)
+                                 progress=not args.no_progress, recorder=recorder,
+                                 trial=args.trial, calibration=args.calibration)
         recorded = recorder.close() if recorder is not None else None
     finally:
         if recorder is not None:
