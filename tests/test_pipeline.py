@@ -36,7 +36,9 @@ def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
     assert result.attrs["complete"]
     np.testing.assert_array_equal(result.frames, np.arange(1, 9))
     assert result.state.shape == (8, 27) and result.part_scores.shape == (8, 10, 4)
-    assert result.ess.shape == (8, 3)
+    # one ESS per annealing layer: the hierarchical search's trunk and limb layers
+    from voxelmocap.hierarchy import body_partitions
+    assert result.ess.shape == (8, sum(p.layers for p in body_partitions(SMALL.filter)))
     (seq,) = evaluate_files(tmp_path / "run", walk_dataset)
     # The renderer's body is not the tracker's cones, and 4 cameras carve a fat visual hull:
     # the bound is loose on purpose but far below what a lost track gives (> 300 mm).

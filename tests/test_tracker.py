@@ -18,7 +18,10 @@ from voxelmocap.tracker import (
 )
 from voxelmocap.tracking import RandomWalk, TwoStateElbow, VelocityModel
 
-SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 40})
+# the joint search (paper 002) with no settling: these tests check the tracker against the
+# filter it assembles; the hierarchical search has its own (tests/tracking/test_partitioned.py)
+SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 40,
+                                         "filter.search": "joint", "init.settle_steps": 0})
 MODEL = BodyModel()
 GRID = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
 
@@ -168,6 +171,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
 
     text = """
     [filter]
+    search = "joint"
     layers = 3
     particles = 50
     survival = 0.3
@@ -281,6 +285,7 @@ def test_settling_steps_bring_a_rough_start_closer_before_the_first_record():
     errors = {}
     for steps in (0, 6):
         config = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150,
+                                                  "filter.search": "joint",
                                                   "init.settle_steps": steps})
         tracker = BodyTracker(MODEL, config, seed=1)
         tracker.start("test", start)

@@ -193,21 +193,26 @@ class FilterConfig:
     #: follow the knees (walk 76 mm, 3 seeds: the legs are lost mid-stride); 0.12 gave 70 mm on the
     #: jog. 0.1 rad = 5.7° per frame at 60 Hz.
     joint_std_rad: float = 0.1
-    #: ``joint``: every layer searches all 27 dimensions (paper 002); ``hierarchical``: the root,
+    #: ``joint``: every layer searches all 27 dimensions (paper 002); ``hierarchical`` (with the
+    #: ``apf`` strategy; ``sir`` and ``iapf`` always search jointly): the root,
     #: trunk and head first, then each limb with the rest held at the estimate, the limbs scored
     #: by exact partial re-scoring (``voxelmocap.hierarchy``; ``layers``/``particles`` then do
-    #: not apply). See docs/benchmarks.md, "Accuracy without the answer".
-    search: str = _choice("joint", "hierarchical", default="joint")
-    #: hierarchical search: layers and particles of the root-and-trunk partition
-    trunk_layers: int = 3
-    trunk_particles: int = 600
-    #: hierarchical search: layers and particles of each limb partition (shoulder 3 + elbow, or
-    #: hip 3 + knee)
-    limb_layers: int = 2
-    limb_particles: int = 225
+    #: not apply). Screened without the answer (walk, jog, box, 40 frames, seed 0; with
+    #: ``refine_evaluations`` 40 and ``init.settle_steps`` 5): mean μ 89 mm against the joint
+    #: search's 115 mm; docs/benchmarks.md, "Accuracy without the answer".
+    search: str = _choice("hierarchical", "joint", default="hierarchical")
+    #: hierarchical search: layers and particles of the root-and-trunk partition and of each
+    #: limb partition (shoulder 3 + elbow, or hip 3 + knee). None: from ``layers`` and
+    #: ``particles``, spending the joint search's budget — the trunk ``layers // 2`` layers of
+    #: ``particles``, each limb ``layers // 3`` layers of ``3/8 · particles`` (at 6 × 600: 3 × 600
+    #: and 2 × 225, 3600 evaluations as the joint search; a limb's cost two cones out of ten)
+    trunk_layers: int | None = None
+    trunk_particles: int | None = None
+    limb_layers: int | None = None
+    limb_particles: int | None = None
     #: likelihood evaluations of the deterministic compass search refining each partition's
     #: estimate (hierarchical search; 0 = no refinement)
-    refine_evaluations: int = 0
+    refine_evaluations: int = 40
     #: hierarchical search: share of each limb partition's first layer drawn uniformly over the
     #: limb's legal ranges (a 4-dimensional box is small enough to search globally), in [0, 1)
     limb_explore: float = 0.0
@@ -244,7 +249,7 @@ class InitConfig:
     #: extra filter steps on the first frame before it is recorded, so that a rough start (an
     #: extremity fit, a standing pose) settles onto the first frame's voxels instead of being
     #: dragged along by the motion while still far off; the estimate history is then cleared
-    settle_steps: int = 0
+    settle_steps: int = 5
 
 
 #: Formats ``track`` and ``export`` write (:mod:`voxelmocap.io.exports`).
@@ -400,12 +405,9 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, f"key '{prefix}.limb_explore' must be in [0, 1)")
         if obj.refine_evaluations < 0:
             raise InputError(source, f"key '{prefix}.refine_evaluations' must be >= 0")
-        if min(obj.trunk_particles, obj.limb_particles) < 2:
-            raise InputError(source, f"keys '{prefix}.trunk_particles' and "
-                                     f"'{prefix}.limb_particles' must be >= 2")
-        if obj.search == "hierarchical" and obj.strategy != "apf":
-            raise InputError(source, f"key '{prefix}.search': the hierarchical search runs the "
-                                     f"apf strategy only, not {obj.strategy!r}")
+        for name in ("trunk_particles", "limb_particles"):
+            if getattr(obj, name) is not None and getattr(obj, name) < 2:
+                raise InputError(source, f"key '{prefix}.{name}' must be >= 2")
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
     if isinstance(obj, SilhouetteConfig):

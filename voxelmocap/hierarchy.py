@@ -45,10 +45,24 @@ BODY_PARTITIONS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
 
 
 def body_partitions(fc) -> list[Partition]:
-    """The filter's partitions from a ``FilterConfig`` (trunk and limb layers/particles)."""
-    out = [Partition(BODY_PARTITIONS[0][0], fc.trunk_layers, fc.trunk_particles)]
-    out += [Partition(dims, fc.limb_layers, fc.limb_particles) for dims, _ in BODY_PARTITIONS[1:]]
-    return out
+    """The filter's partitions from a ``FilterConfig``.
+
+    Sizes left None spend the joint search's budget (``FilterConfig.trunk_layers``): the trunk
+    ``layers // 2`` layers of ``particles``, each limb ``layers // 3`` layers of ``3/8`` of them.
+
+    >>> from voxelmocap.config import FilterConfig
+    >>> [(len(p.dims), p.layers, p.particles) for p in body_partitions(FilterConfig())][:2]
+    [(11, 3, 600), (4, 2, 225)]
+    """
+    def size(value, default):
+        return int(default) if value is None else int(value)
+
+    trunk = Partition(BODY_PARTITIONS[0][0], size(fc.trunk_layers, max(1, fc.layers // 2)),
+                      size(fc.trunk_particles, fc.particles))
+    limb_layers = size(fc.limb_layers, max(1, fc.layers // 3))
+    limb_particles = size(fc.limb_particles, max(2, round(3 * fc.particles / 8)))
+    return [trunk] + [Partition(dims, limb_layers, limb_particles)
+                      for dims, _ in BODY_PARTITIONS[1:]]
 
 
 def pitch_prior(states, std_deg: float | None) -> np.ndarray | float:

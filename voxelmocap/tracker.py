@@ -200,7 +200,7 @@ def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
 
     fc = config.filter
     noise = noise_profile(model, config) if noise_std is None else noise_std
-    if fc.search == "hierarchical":
+    if fc.search == "hierarchical" and fc.strategy == "apf":
         from .hierarchy import body_partitions
         from .tracking.partitioned import PartitionedParticleFilter
 
