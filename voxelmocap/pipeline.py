@@ -65,6 +65,10 @@ class TrackOutcome:
     init_method: str
     resumed_from: int  #: frames already done when the run started (0 for a fresh run)
     seconds_per_frame: float
+    #: frames flagged without a person (not tracked; ``config.recovery``), in this run
+    absent_frames: list = dataclasses.field(default_factory=list)
+    #: ``(frame, note)`` of every re-initialisation in this run
+    reinitialisations: list = dataclasses.field(default_factory=list)
 
 
 
@@ -217,10 +221,13 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
             # resumed run sees the same background model as an uninterrupted one.
             for _, images in seq.frames(selected[:resumed_from]):
                 stage.masks(images)
-        done = {"frames": [], "endpoints": [], "seconds": []}
+        done = {"frames": [], "endpoints": [], "seconds": [], "observed": [], "absent": [],
+                "notes": []}
         if previous is not None:
-            for key in done:
+            for key in ("frames", "endpoints", "seconds"):
                 done[key].extend(getattr(previous, key))
+            done["observed"].extend(np.ones(len(previous), bool) if previous.observed is None
+                                    else previous.observed)
         if not _kernels_cached():
             log("compiling the likelihood kernels (first run only, ~20 s)…")
         bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
@@ -229,6 +236,17 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
             for frame_number, images in seq.frames(selected[resumed_from:]):
                 t0 = time.perf_counter()
                 measurement = stage.measure(images, frame=frame_number)
+                if (config.recovery.enabled and starts is None
+                        and (tracker is None or not tracker.initialised)
+                        and _absent(measurement, model, config)):
+                    # Nobody in view yet: flagged, nothing to start from (no checkpoint either).
+                    record = _absent_record(model, measurement, frame_number, config,
+                                            time.perf_counter() - t0)
+                    if bar is not None:
+                        bar.update(1)
+                    _append(writer, [record], [None], tracker, done, len(selected), previous,
+                            dict(meta, init_method=init_method), model, resume or overwrite, bar)
+                    continue
                 if tracker is None:
                     model, model_source = _sized_model(_voxel_height(measurement, frame_number),
                                                        frame_number)
@@ -258,7 +276,9 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                     checkpoints, starts = starts.checkpoints[starts.chosen], None
                 else:
                     # The file's seconds are the whole frame's: measurement, start and filter.
-                    record = tracker.step(measurement, frame=frame_number)
+                    record = (tracker.observe(measurement, frame=frame_number)
+                              if config.recovery.enabled
+                              else tracker.step(measurement, frame=frame_number))
                     records = [dataclasses.replace(record, seconds=time.perf_counter() - t0)]
                     checkpoints = [None]
                     if bar is not None:
@@ -277,9 +297,42 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 bar.close()
 
     frames_done = np.array(done["frames"])
-    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps)
+    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps,
+                   np.array(done["observed"], bool))
+    for frame, note in done["notes"]:
+        log(f"frame {frame}: {note}")
+    if done["absent"]:
+        log(f"{len(done['absent'])} frame(s) flagged without a person (not tracked, skipped by "
+            f"'voxelmocap evaluate'): {_frame_list(done['absent'])}")
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
-                        resumed_from, float(np.mean(done["seconds"])))
+                        resumed_from, float(np.mean(done["seconds"])), done["absent"],
+                        done["notes"])
+
+
+def _absent(measurement, model, config) -> bool:
+    """Whether a frame has no person (``voxelmocap.recovery.person_presence``)."""
+    from .body import BodyModel
+    from .recovery import person_presence
+
+    return not person_presence(measurement.occupancy, measurement.grid, model or BodyModel(),
+                               min_share=config.recovery.min_volume_share).present
+
+
+def _absent_record(model, measurement, frame, config, seconds):
+    """The flagged record of a frame without a person before the track started."""
+    from .body import BodyModel
+    from .recovery import absent_record
+
+    model = model or BodyModel()
+    fc = config.filter
+    return absent_record(model, measurement, model.default_state(), frame=frame,
+                         n_layers=1 if fc.strategy == "sir" else fc.layers,
+                         variances=config.likelihood.variances, seconds=seconds)
+
+
+def _frame_list(frames, n: int = 10) -> str:
+    shown = ", ".join(str(int(f)) for f in frames[:n])
+    return shown + (f" … ({len(frames) - n} more)" if len(frames) > n else "")
 
 
 def _chosen(starts, log) -> tuple[BodyTracker, str]:
@@ -298,11 +351,16 @@ def _append(writer, records, checkpoints, tracker, done, n_selected, previous, a
             writer.start(record, attrs=attrs, state_names=model.state_names,
                          part_names=model.part_names, previous=previous, replace=replace)
         for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
-                           ("seconds", record.seconds)):
+                           ("seconds", record.seconds), ("observed", record.observed)):
             done[key].append(value)
-        writer.append(record, tracker.get_state() if checkpoint is None else checkpoint,
-                      complete=len(done["frames"]) == n_selected)
-    if bar is not None:
+        if not record.observed:
+            done["absent"].append(int(record.frame))
+        if record.note and record.observed:
+            done["notes"].append((int(record.frame), record.note))
+        if checkpoint is None and tracker is not None and tracker.initialised:
+            checkpoint = tracker.get_state()
+        writer.append(record, checkpoint, complete=len(done["frames"]) == n_selected)
+    if bar is not None and tracker is not None and tracker.initialised:
         bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
                         fps=f"{1.0 / max(records[-1].seconds, 1e-9):.2f}")
 
@@ -369,8 +427,12 @@ def _kernels_cached() -> bool:
         return True
 
 
-def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
-    """The body_pose XML (HUMANEVA.md §6) and the BVH of tracked poses."""
+def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps, observed=None) -> None:
+    """The body_pose XML (HUMANEVA.md §6) and the BVH of tracked poses.
+
+    Frames flagged without a person (``observed`` False) have every endpoint disabled in the
+    XML; the BVH holds the repeated last estimate there (a BVH has no flags).
+    """
     from .io.body_pose_xml import write_body_pose_xml
     from .io.bvh_writer import write_landmarks_bvh
     from .joints import endpoints_to_landmarks
@@ -381,7 +443,9 @@ def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
                   "SubjectName": seq.subject, "ActionType": seq.action, "Trial": seq.trial,
                   "FrameStart": int(frames[0]), "FrameEnd": int(frames[-1]),
                   "Partition": source.get("Partition", "Validate")}
-    write_body_pose_xml(xml_path, frames, endpoints, attributes=attributes)
+    enabled = None if observed is None else np.repeat(np.asarray(observed, bool)[:, None], 20,
+                                                      axis=1)
+    write_body_pose_xml(xml_path, frames, endpoints, enabled, attributes=attributes)
     write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
 
 

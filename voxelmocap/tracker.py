@@ -87,6 +87,11 @@ class FrameRecord:
         Log-likelihood of ``state`` (from ``part_scores``).
     likelihood_seconds : float
         The part of ``seconds`` spent in the filter's likelihood evaluations.
+    observed : bool
+        False for a frame without a person (``voxelmocap.recovery``): the filter did not step
+        and the estimate repeats the last one; evaluations skip such frames.
+    note : str
+        What happened besides tracking, e.g. a re-initialisation (empty when nothing did).
     """
 
     frame: int
@@ -100,6 +105,8 @@ class FrameRecord:
     seconds: float
     log_likelihood: float
     likelihood_seconds: float = 0.0
+    observed: bool = True
+    note: str = ""
 
 
 Observer = Callable[[FrameRecord, "BodyTracker"], None]
@@ -303,6 +310,11 @@ class BodyTracker:
         self.filter = build_filter(model, self.config, rng, noise_std=self.noise_std)
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
+        #: the IAPF proposal of the next frame when set (a re-initialisation's hypotheses), and
+        #: the last one used (``voxelmocap.recovery.MixtureProposal``)
+        self.pending_proposal = None
+        self.last_proposal = None
+        self._recovery = None
 
     def __repr__(self) -> str:
         return f"BodyTracker({self.model!r}, {self.filter!r})"
@@ -403,7 +415,8 @@ class BodyTracker:
         t0 = time.perf_counter()
         pf = self.filter
         spent = [0.0]
-        est = self.model.clip(pf.step(self.log_likelihood(observation, spent))[None])
+        proposal = self.proposal(observation) if pf.strategy == "iapf" else {}
+        est = self.model.clip(pf.step(self.log_likelihood(observation, spent), **proposal)[None])
         # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
         # joints picked by index); the part scores run their own inside the likelihood kernel.
         joints = self.model.forward(est).joints
@@ -425,6 +438,53 @@ class BodyTracker:
             observer(record, self)
         return record
 
+    def proposal(self, observation) -> dict:
+        """The IAPF's detector proposal for this frame, as ``AnnealedParticleFilter.step`` options.
+
+        :func:`voxelmocap.recovery.detector_proposal` around the latest estimate (or the mean of
+        the particles right after a start), or the pending re-initialisation mixture; its
+        log-density is passed (importance correction) only with ``recovery.proposal_correction``.
+        """
+        from .recovery import detector_proposal
+
+        rc, pf = self.config.recovery, self.filter
+        mix, self.pending_proposal = self.pending_proposal, None
+        if pf.iapf_fractions[1] == 0:
+            return {}  # no particle comes from the proposal: nothing to build
+        if mix is None:
+            previous = pf.estimate if pf.estimate is not None else pf.weights @ pf.particles
+            mix = detector_proposal(observation, self.model, std=rc.proposal_spread * self.noise_std,
+                                    previous=previous, gate_mm=rc.proposal_gate_mm,
+                                    mirror=rc.proposal_mirror)
+        self.last_proposal = mix
+        return {"proposal": mix.sample,
+                "proposal_log_pdf": mix.log_pdf if rc.proposal_correction else None}
+
+    def observe(self, observation, *, frame: int | None = None) -> FrameRecord:
+        """:meth:`step` with recovery (``voxelmocap.recovery.Recovery``, ``config.recovery``).
+
+        A frame without a person is not tracked: its record repeats the last estimate with
+        ``observed = False``. The track starts again from the voxels when the person comes back
+        or the lost-track rule fires (the record's ``note`` says so). Observers are called for
+        every frame.
+        """
+        from .recovery import Recovery
+
+        if self._recovery is None:
+            self._recovery = Recovery(self)
+        if frame is None:
+            frame = self.filter.frame + 1
+        record = self._recovery.step(observation, frame=frame)
+        if not record.observed:
+            for observer in self.observers:
+                observer(record, self)
+        return record
+
+    @property
+    def recovery(self):
+        """The :class:`voxelmocap.recovery.Recovery` of :meth:`observe` (None before its use)."""
+        return self._recovery
+
     def track(self, observations: Iterable, frames: Iterable[int] | None = None,
               ground_truth=None) -> list[FrameRecord]:
         """Step through observations (initialising on the first when needed); the records.
@@ -442,12 +502,20 @@ class BodyTracker:
 
     # ------------------------------------------------------------------ checkpoints
     def get_state(self) -> dict:
-        """The filter's complete state (see ``AnnealedParticleFilter.get_state``)."""
-        return self.filter.get_state()
+        """The filter's complete state (``AnnealedParticleFilter.get_state``), and the recovery's."""
+        state = self.filter.get_state()
+        if self._recovery is not None:
+            state.update(self._recovery.get_state())
+        return state
 
     def set_state(self, state: dict) -> None:
         """Restore :meth:`get_state`; stepping on then equals an uninterrupted run."""
         self.filter.set_state(state)
+        if "recovery_good" in state:
+            from .recovery import Recovery
+
+            self._recovery = Recovery(self)
+            self._recovery.set_state(state)
 
 
 class MultiStart:

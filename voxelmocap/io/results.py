@@ -6,7 +6,9 @@
   ``frames`` (F,) synchronised 1-based frame numbers, ``state`` (F, 27) and ``map_state`` (F, 27)
   (mm, rad; names in ``state_names``), ``landmarks`` (F, 15, 3) mm, ``endpoints`` (F, 20, 3) mm,
   ``part_scores`` (F, n_parts, 4) of the estimate (Out, DO, Empty, Surf), ``ess`` and ``betas``
-  (F, L) per annealing layer, ``seconds`` (F,) per frame, ``log_likelihood`` (F,);
+  (F, L) per annealing layer, ``seconds`` (F,) per frame, ``log_likelihood`` (F,), and
+  ``observed`` (F,) uint8 (0: a frame flagged without a person, whose row repeats the last
+  estimate; files written before it have no such dataset and read as all observed);
 * ``state_names`` and ``part_names``: UTF-8 string datasets;
 * file attributes: ``format`` / ``format_version``, ``voxelmocap_version``, ``created`` (UTC, ISO
   8601), ``length_unit`` ``"mm"``, ``angle_unit`` ``"rad"``, ``coordinate_frame`` (Z up, floor at
@@ -77,6 +79,13 @@ PER_FRAME: dict[str, tuple[str, str]] = {
     "log_likelihood": ("1", "log-likelihood of the estimate (paper 002 eqs 7-9)"),
     "map_state": ("mm (translation), rad (angles)", "the particle of largest last-layer weight"),
 }
+#: Per-frame datasets that older files lack (read as their default): name → (units,
+#: description, default, dtype).
+OPTIONAL_PER_FRAME: dict[str, tuple[str, str, object, type]] = {
+    "observed": ("1", "1: a person was in view and the frame was tracked; 0: flagged without a "
+                 "person (voxelmocap.recovery): the filter did not step, the row repeats the last "
+                 "estimate and evaluations skip it", 1, np.uint8),
+}
 _INT_ROWS = {"frames"}
 _CHUNK_ROWS = 64  # rows per chunk: a few kB per dataset, rewritten at most once per frame
 _STR = h5py.string_dtype("utf-8")
@@ -108,6 +117,8 @@ class TrackResult:
     part_names: list = field(default_factory=list)
     attrs: dict = field(default_factory=dict)
     checkpoint: dict | None = None
+    #: (F,) bool: False for frames flagged without a person (None: the file predates the flag)
+    observed: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -332,6 +343,13 @@ class ResultWriter:
                                  chunks=(_CHUNK_ROWS,) + shape, dtype=dtype)
             d.attrs["units"] = units
             d.attrs["description"] = description
+        for name, (units, description, default, dtype) in OPTIONAL_PER_FRAME.items():
+            old = None if previous is None else getattr(previous, name, None)
+            rows = np.full(n, default, dtype) if old is None else np.asarray(old, dtype).reshape(n)
+            d = f.create_dataset(name, data=rows, maxshape=(None,), chunks=(_CHUNK_ROWS,),
+                                 dtype=dtype)
+            d.attrs["units"] = units
+            d.attrs["description"] = description
         for slot in (0, 1):
             d = f.create_dataset(f"checkpoint_{slot}", shape=(0,), maxshape=(None,),
                                  chunks=(1 << 16,), dtype=np.uint8)
@@ -368,6 +386,10 @@ class ResultWriter:
             d = f[name]
             d.resize(n + 1, axis=0)
             d[n] = getattr(record, "frame" if name == "frames" else name)
+        for name, (_, _, default, _) in OPTIONAL_PER_FRAME.items():
+            d = f[name]
+            d.resize(n + 1, axis=0)
+            d[n] = getattr(record, name, default)
         slot = -1  # without a new state, no checkpoint matches the frames any more
         if checkpoint is not None:
             slot = 1 if self._slot == 0 else 0  # never overwrite the committed state
@@ -518,6 +540,11 @@ def _read(path: Path, f: h5py.File) -> TrackResult:
                                + ")")
     data = {name: f[name][:n] for name in PER_FRAME}
     _check_shapes(path, data)
+    observed = None
+    if "observed" in f:
+        observed = np.asarray(f["observed"][:n]).astype(bool)
+        if observed.shape != (n,):
+            raise InputError(path, f"dataset 'observed' has shape {observed.shape}, expected {n}")
     checkpoint = None
     if slot >= 0:
         try:
@@ -531,4 +558,4 @@ def _read(path: Path, f: h5py.File) -> TrackResult:
         **data,
         state_names=list(f["state_names"].asstr()[()]),
         part_names=list(f["part_names"].asstr()[()]),
-        attrs=attrs, checkpoint=checkpoint)
+        attrs=attrs, checkpoint=checkpoint, observed=observed)
