@@ -1,0 +1,214 @@
+"""Recovery: the IAPF's detector proposal, frames without a person, lost tracks, re-initialisation."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from voxelmocap.body import BodyModel
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.grid import VoxelGrid
+from voxelmocap.likelihood import Measurement, rasterise
+from voxelmocap.recovery import (
+    LostTrack,
+    MixtureProposal,
+    body_volume,
+    detector_proposal,
+    person_presence,
+)
+from voxelmocap.tracker import BodyTracker
+
+MODEL = BodyModel()
+GRID = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
+TINY = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 40})
+
+
+def seen(state):
+    return Measurement(rasterise(MODEL, np.asarray(state)[None], GRID) > 0, GRID)
+
+
+# ---------------------------------------------------------------------------- the proposal
+def test_mixture_samples_follow_the_density_it_claims():
+    low, high = np.array([-1.0, 0.0, -5.0]), np.array([2.0, 10.0, 5.0])
+    means = np.array([[0.0, 1.0, 4.5], [1.5, 6.0, -1.0]])
+    std = np.array([0.5, 2.0, 1.5])
+    mix = MixtureProposal(means, std, low, high)
+    x = mix.sample(20000, np.random.default_rng(0))
+    assert x.shape == (20000, 3) and np.all(x >= low) and np.all(x <= high)
+
+    # Independent truth: scipy's truncated normals, an equal-weight mixture per dimension.
+    def marginal_cdf(d):
+        parts = [stats.truncnorm((low[d] - m) / std[d], (high[d] - m) / std[d], loc=m,
+                                 scale=std[d]) for m in means[:, d]]
+        return lambda v: np.mean([p.cdf(v) for p in parts], axis=0)
+
+    for d in range(3):
+        assert stats.kstest(x[:, d], marginal_cdf(d)).pvalue > 1e-3, d
+    # The components are sampled jointly (one component per draw, not per dimension): the
+    # share of draws with dim 1 > 4 and dim 2 > 2 is the mixture of the components' products,
+    # far from the product of the marginals that mixing each dimension alone would give.
+    def tail(d, k, v):
+        m = means[k, d]
+        return stats.truncnorm.sf(v, (low[d] - m) / std[d], (high[d] - m) / std[d], loc=m,
+                                  scale=std[d])
+
+    joint = np.mean([tail(1, k, 4.0) * tail(2, k, 2.0) for k in range(2)])
+    product = np.mean([tail(1, k, 4.0) for k in range(2)]) * np.mean([tail(2, k, 2.0)
+                                                                      for k in range(2)])
+    share = np.mean((x[:, 1] > 4.0) & (x[:, 2] > 2.0))
+    assert abs(share - joint) < 4 * np.sqrt(joint * (1 - joint) / len(x))
+    assert abs(share - product) > 10 * np.sqrt(joint * (1 - joint) / len(x))
+
+    # log_pdf: the mixture of products of scipy's densities.
+    pts = np.array([[0.1, 1.2, 4.0], [1.4, 5.0, -0.5], [-0.9, 9.9, 0.0]])
+    truth = np.log(np.mean([np.prod([stats.truncnorm.pdf(
+        pts[:, d], (low[d] - m[d]) / std[d], (high[d] - m[d]) / std[d], loc=m[d],
+        scale=std[d]) for d in range(3)], axis=0) for m in means], axis=0))
+    np.testing.assert_allclose(mix.log_pdf(pts), truth, rtol=1e-9)
+    assert mix.log_pdf(np.array([[3.0, 1.0, 0.0]]))[0] == -np.inf  # outside the bounds
+    proposal, log_pdf = mix  # unpacks as the filter's pair
+    assert proposal(5, np.random.default_rng(1)).shape == (5, 3)
+
+
+def test_detector_proposal_moves_the_limbs_to_the_detected_ends():
+    rng = np.random.default_rng(4)
+    names = list(MODEL.state_names)
+    truth = MODEL.default_state()
+    truth[names.index("l_shoulder_abd")] = 1.2  # arms out: tips of their own
+    truth[names.index("r_shoulder_abd")] = 1.0
+    truth[names.index("r_shoulder_flex")] = 0.6
+    truth[names.index("l_hip_flex")] = 0.5
+    truth[names.index("l_knee")] = 0.6
+    truth = MODEL.clip(truth[None])[0]
+    obs = seen(truth)
+    previous = truth.copy()
+    limbs = [names.index(n) for n in ("l_shoulder_abd", "r_shoulder_abd", "r_shoulder_flex",
+                                      "l_hip_flex", "l_knee")]
+    previous[limbs] += rng.choice([-1, 1], size=len(limbs)) * 0.35
+    previous = MODEL.clip(previous[None])[0]
+
+    def error(state):
+        return float(np.linalg.norm(MODEL.landmarks(state[None]) - MODEL.landmarks(truth[None]),
+                                    axis=2).mean())
+
+    mix = detector_proposal(obs, MODEL, std=0.01, previous=previous)
+    assert mix.labels[0].startswith("fit of")
+    # The warm-started fit lands nearer the truth than where it started.
+    assert error(mix.means[0]) < 0.6 * error(previous), (error(mix.means[0]), error(previous))
+    # The mirrored labelling is there as a second component.
+    assert len(mix) == 2 and mix.labels[1] == "left/right swapped fit"
+
+
+def test_detector_proposal_without_detection_stays_on_the_previous_estimate():
+    obs = Measurement(np.zeros(GRID.shape, bool), GRID)
+    previous = MODEL.default_state()
+    mix = detector_proposal(obs, MODEL, std=0.1, previous=previous)
+    np.testing.assert_array_equal(mix.means, previous[None])
+    with pytest.raises(ValueError, match="previous estimate"):
+        detector_proposal(obs, MODEL, std=0.1)
+
+
+# ---------------------------------------------------------------------------- absence
+def test_body_volume_matches_its_rasterised_voxels():
+    fine = VoxelGrid((-1200.0, -1200.0, 0.0), 20.0, (120, 120, 100))
+    # Arms out: parts hardly overlap, so the sum of the parts' volumes is the union's.
+    state = MODEL.default_state()
+    names = list(MODEL.state_names)
+    state[names.index("l_shoulder_abd")] = state[names.index("r_shoulder_abd")] = 1.4
+    state[names.index("l_hip_abd")] = state[names.index("r_hip_abd")] = 0.4
+    count = rasterise(MODEL, state[None], fine)
+    assert np.sum(count) * 20.0**3 == pytest.approx(body_volume(MODEL), rel=0.05)
+
+
+def test_absence_on_an_empty_grid_and_presence_of_a_body():
+    assert not person_presence(np.zeros(GRID.shape, bool), GRID, MODEL).present
+    body = seen(MODEL.default_state())
+    p = person_presence(body.occupancy, GRID, MODEL)
+    assert p.present and p.voxels == body.occupancy.sum()
+    # A forearm-sized blob and scattered specks are not a person, however many specks.
+    specks = np.zeros(GRID.shape, bool)
+    specks[::4, ::4, ::6] = True
+    assert not person_presence(specks, GRID, MODEL).present
+    blob = np.zeros(GRID.shape, bool)
+    blob[30:33, 30:33, 10:20] = True
+    assert not person_presence(blob, GRID, MODEL).present
+    # Half the body volume in one blob is a person (a crouch, a few cameras).
+    needed = 0.5 * body_volume(MODEL) / 40.0**3
+    side = int(np.ceil(needed ** (1 / 3)))
+    cube = np.zeros(GRID.shape, bool)
+    cube[10:10 + side, 10:10 + side, 0:side] = True
+    assert person_presence(cube, GRID, MODEL, min_share=0.3).present
+    assert not person_presence(cube, GRID, MODEL, min_share=0.9).present
+
+
+# ---------------------------------------------------------------------------- lost track
+def scores(empty):
+    s = np.zeros((10, 4))
+    s[:, 2] = empty
+    return s
+
+
+def test_lost_track_rule_on_a_synthetic_history():
+    rng = np.random.default_rng(0)
+    ll = -14.0 + rng.normal(0, 2.0, 80)
+    ll[30] = -40.0  # one bad frame (a spike): not lost
+    ll[45:47] = -45.0  # two: not lost with patience 3
+    ll[60:] = -60.0  # collapse: lost at the third bad frame, 62
+    rule = LostTrack(window=30, drop=20.0, empty_max=0.5, patience=3)
+    fired = [i for i in range(80) if rule.update(ll[i], scores(0.2))]
+    assert fired[0] == 62
+    # The collapsed frames never enter the reference: it stays lost.
+    assert fired == list(range(62, 80))
+    # The Empty criterion catches a track wrong from the start (no reference to fall from).
+    rule = LostTrack(patience=3)
+    assert [rule.update(-30.0, scores(0.7)) for _ in range(3)] == [False, False, True]
+    rule.reset()
+    assert rule.update(-30.0, scores(0.7)) is False
+    # The state round-trips (for checkpoints).
+    a = LostTrack()
+    for v in ll[:20]:
+        a.update(v, scores(0.1))
+    b = LostTrack()
+    b.set_state(a.get_state())
+    assert [a.update(v, scores(0.1)) for v in ll[55:70]] == \
+        [b.update(v, scores(0.1)) for v in ll[55:70]]
+
+
+# ---------------------------------------------------------------------------- the tracker
+def walk(n):
+    x = np.repeat(MODEL.default_state()[None], n, axis=0)
+    x[:, 1] += 25.0 * np.arange(n)
+    return MODEL.clip(x)
+
+
+def test_absent_frames_are_flagged_and_the_track_restarts(monkeypatch):
+    states = walk(9)
+    states[6:, 0] += 300.0  # the person comes back elsewhere
+    empty = Measurement(np.zeros(GRID.shape, bool), GRID)
+    frames = [seen(s) for s in states]
+    frames[3:6] = [empty] * 3
+    tracker = BodyTracker(MODEL, TINY, seed=0)
+    tracker.initialise(frames[0], MODEL.landmarks(states[:1])[0], frame=1)
+    restarted = []
+    from voxelmocap import initialise
+
+    real = initialise.initial_pose
+
+    def spy(*args, **kwargs):
+        restarted.append(True)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(initialise, "initial_pose", spy)
+    records = [tracker.observe(f, frame=k + 1) for k, f in enumerate(frames)]
+    assert [r.observed for r in records] == [True] * 3 + [False] * 3 + [True] * 3
+    # Absent frames repeat the last estimate and do not step the filter.
+    for r in records[3:6]:
+        np.testing.assert_array_equal(r.state, records[2].state)
+        assert np.all(np.isnan(r.ess)) and r.note == "no person in view"
+    assert tracker.filter.frame == 3  # restarted at frame 7 (a start resets the count)
+    assert restarted == [True]
+    assert records[6].note.startswith("re-initialised (the person is back in view)")
+    assert tracker.recovery.events[0][0] == 7
+    # Back on the person: the estimate follows the moved body.
+    error = np.linalg.norm(MODEL.landmarks(records[-1].state[None])
+                           - MODEL.landmarks(states[-1:]), axis=2).mean()
+    assert error < 120.0, error
