@@ -212,3 +212,75 @@ def test_absent_frames_are_flagged_and_the_track_restarts(monkeypatch):
     error = np.linalg.norm(MODEL.landmarks(records[-1].state[None])
                            - MODEL.landmarks(states[-1:]), axis=2).mean()
     assert error < 120.0, error
+
+
+# ---------------------------------------------------------------------------- end to end
+def test_track_strategy_iapf_runs_from_the_command_line(walk_dataset, tmp_path, monkeypatch):
+    from voxelmocap import recovery
+    from voxelmocap.cli import main
+    from voxelmocap.io.results import read_result
+
+    calls = []
+    real = recovery.detector_proposal
+
+    def counted(*args, **kwargs):
+        mix = real(*args, **kwargs)
+        calls.append(len(mix))
+        return mix
+
+    monkeypatch.setattr(recovery, "detector_proposal", counted)
+    assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
+                 "--frames", "1:3", "--layers", "2", "--particles", "30", "--strategy", "iapf",
+                 "--no-progress", "--out", str(tmp_path / "run")]) == 0
+    assert len(calls) == 3  # one detector proposal per frame
+    result = read_result(tmp_path / "run" / "S1" / "Walking_1.h5")
+    assert len(result) == 3 and result.observed.all()
+    assert "strategy = \"iapf\"" in result.attrs["config"]
+
+
+@pytest.fixture(scope="module")
+def absence_dataset(tmp_path_factory):
+    """A 10-frame procedural walk whose person is out of the room in frames 4–6."""
+    from voxelmocap.synth import generate, writer
+
+    original = writer.place_in_area
+
+    def away(points, fps, **kwargs):
+        out = original(points, fps, **kwargs)
+        lead = len(out) - 10
+        out[lead + 3:lead + 6, :, 0] += 30000.0  # synchronised frames 4, 5, 6
+        return out
+
+    root = tmp_path_factory.mktemp("absence")
+    writer.place_in_area = away
+    try:
+        generate(root, motion="walk", frames=10, cameras=["C1", "C2", "C3", "BW1"],
+                 progress=False, background_frames=20, seed=3)
+    finally:
+        writer.place_in_area = original
+    return root
+
+
+def test_a_short_absence_is_flagged_and_the_track_restarts(absence_dataset, tmp_path):
+    from voxelmocap.io.body_pose_xml import read_body_pose_xml
+    from voxelmocap.io.reports import evaluate_files
+    from voxelmocap.io.results import read_result
+    from voxelmocap.pipeline import track_sequence
+
+    config = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 100,
+                                              "init.hypotheses": 2})
+    messages = []
+    outcome = track_sequence(absence_dataset, "S1", "Walking_1", tmp_path / "run",
+                             config=config, seed=0, progress=False, log=messages.append)
+    assert outcome.absent_frames == [4, 5, 6]
+    assert [f for f, _ in outcome.reinitialisations] == [7]
+    assert any("3 frame(s) flagged without a person" in m for m in messages)
+    result = read_result(outcome.result_path)
+    np.testing.assert_array_equal(result.observed, np.isin(np.arange(1, 11), [4, 5, 6],
+                                                           invert=True))
+    xml = read_body_pose_xml(outcome.xml_path)
+    assert not xml.enabled[3:6].any() and xml.enabled[[0, 1, 2, 6, 7, 8, 9]].all()
+    (seq,) = evaluate_files(tmp_path / "run", absence_dataset)
+    assert seq.scores.unobserved == 3 and seq.scores.frames == 7
+    # The flagged frames' far-away truth is not scored; the tracked ones are on the person.
+    assert seq.scores.mu_mm < 200.0
