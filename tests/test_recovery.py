@@ -1,5 +1,7 @@
 """Recovery: the IAPF's detector proposal, frames without a person, lost tracks, re-initialisation."""
 
+import re
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -66,6 +68,7 @@ def test_mixture_samples_follow_the_density_it_claims():
     np.testing.assert_allclose(mix.log_pdf(pts), truth, rtol=1e-9)
     assert mix.log_pdf(np.array([[3.0, 1.0, 0.0]]))[0] == -np.inf  # outside the bounds
     proposal, log_pdf = mix  # unpacks as the filter's pair
+    np.testing.assert_array_equal(log_pdf(pts), mix.log_pdf(pts))
     assert proposal(5, np.random.default_rng(1)).shape == (5, 3)
 
 
@@ -261,17 +264,27 @@ def absence_dataset(tmp_path_factory):
     return root
 
 
-def test_a_short_absence_is_flagged_and_the_track_restarts(absence_dataset, tmp_path):
+ABSENCE_CONFIG = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 100,
+                                                  "init.hypotheses": 2})
+
+
+@pytest.fixture(scope="module")
+def absence_run(absence_dataset, tmp_path_factory):
+    from voxelmocap.pipeline import track_sequence
+
+    run = tmp_path_factory.mktemp("absence_run")
+    messages = []
+    outcome = track_sequence(absence_dataset, "S1", "Walking_1", run, config=ABSENCE_CONFIG,
+                             seed=0, progress=False, log=messages.append)
+    return run, outcome, messages
+
+
+def test_a_short_absence_is_flagged_and_the_track_restarts(absence_dataset, absence_run):
     from voxelmocap.io.body_pose_xml import read_body_pose_xml
     from voxelmocap.io.reports import evaluate_files
     from voxelmocap.io.results import read_result
-    from voxelmocap.pipeline import track_sequence
 
-    config = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 100,
-                                              "init.hypotheses": 2})
-    messages = []
-    outcome = track_sequence(absence_dataset, "S1", "Walking_1", tmp_path / "run",
-                             config=config, seed=0, progress=False, log=messages.append)
+    run, outcome, messages = absence_run
     assert outcome.absent_frames == [4, 5, 6]
     assert [f for f, _ in outcome.reinitialisations] == [7]
     assert any("3 frame(s) flagged without a person" in m for m in messages)
@@ -280,7 +293,48 @@ def test_a_short_absence_is_flagged_and_the_track_restarts(absence_dataset, tmp_
                                                            invert=True))
     xml = read_body_pose_xml(outcome.xml_path)
     assert not xml.enabled[3:6].any() and xml.enabled[[0, 1, 2, 6, 7, 8, 9]].all()
-    (seq,) = evaluate_files(tmp_path / "run", absence_dataset)
+    (seq,) = evaluate_files(run, absence_dataset)
     assert seq.scores.unobserved == 3 and seq.scores.frames == 7
     # The flagged frames' far-away truth is not scored; the tracked ones are on the person.
     assert seq.scores.mu_mm < 200.0
+
+
+def test_a_run_interrupted_during_an_absence_resumes_exactly(absence_dataset, absence_run,
+                                                              tmp_path, monkeypatch):
+    from voxelmocap.io.results import ResultWriter, read_result
+    from voxelmocap.pipeline import track_sequence
+
+    real_append = ResultWriter.append
+    calls = {"n": 0}
+
+    def interrupted(self, *args, **kw):
+        calls["n"] += 1
+        if calls["n"] == 6:  # frame 6: the last absent one; frames 1-5 are committed
+            raise KeyboardInterrupt
+        real_append(self, *args, **kw)
+
+    kwargs = dict(config=ABSENCE_CONFIG, seed=0, progress=False, log=lambda *_: None)
+    monkeypatch.setattr(ResultWriter, "append", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        track_sequence(absence_dataset, "S1", "Walking_1", tmp_path, **kwargs)
+    monkeypatch.setattr(ResultWriter, "append", real_append)
+    resumed = track_sequence(absence_dataset, "S1", "Walking_1", tmp_path, resume=True, **kwargs)
+    assert resumed.resumed_from == 5
+    assert [f for f, _ in resumed.reinitialisations] == [7]  # the absence was remembered
+    a, b = read_result(absence_run[1].result_path), read_result(resumed.result_path)
+    np.testing.assert_array_equal(a.state, b.state)
+    np.testing.assert_array_equal(a.observed, b.observed)
+
+
+def test_recovery_settings_are_checked():
+    from voxelmocap.config import config_from_toml
+    from voxelmocap.errors import InputError
+
+    cfg = config_from_toml("[recovery]\nmin_volume_share = 0.5\nproposal_correction = true\n")
+    assert cfg.recovery.min_volume_share == 0.5 and cfg.recovery.proposal_correction
+    for text, message in (("min_volume_share = 0.0", "'recovery.min_volume_share' must be > 0"),
+                          ("lost_patience = 0", "'recovery.lost_patience' must be > 0"),
+                          ("enabled = 1", "must be true or false"),
+                          ("lost_after = 3", "unknown key 'recovery.lost_after'")):
+        with pytest.raises(InputError, match=re.escape(message)):
+            config_from_toml(f"[recovery]\n{text}\n", source="cfg.toml")

@@ -406,6 +406,8 @@ def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
             raise InputError(path, f"cannot resume: its {key} differs from this run's "
                                    "(use --overwrite to start again)")
     if len(previous) and previous.checkpoint is None:
+        if previous.observed is not None and not previous.observed.any():
+            return None  # only frames without a person, before any start: start again
         raise InputError(path, "cannot resume: the file has no checkpoint")
     return previous if len(previous) else None  # killed before its first frame: start afresh
 
