@@ -338,3 +338,34 @@ def test_recovery_settings_are_checked():
                           ("lost_after = 3", "unknown key 'recovery.lost_after'")):
         with pytest.raises(InputError, match=re.escape(message)):
             config_from_toml(f"[recovery]\n{text}\n", source="cfg.toml")
+
+
+def test_frames_without_a_person_before_the_start_wait_for_it(absence_dataset, tmp_path):
+    """Frames 4–6 are absent: a run of frames 4–10 without the answer starts at frame 7."""
+    import os
+
+    from voxelmocap.io.results import read_result
+    from voxelmocap.pipeline import track_sequence
+
+    stripped = tmp_path / "data"
+    for path in absence_dataset.rglob("*"):
+        rel = path.relative_to(absence_dataset)
+        if "Mocap_Data" in rel.parts:
+            continue
+        if path.is_dir():
+            (stripped / rel).mkdir(parents=True, exist_ok=True)
+        else:
+            (stripped / rel).parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(path, stripped / rel)
+    config = with_overrides(ABSENCE_CONFIG, **{"init.multistart_frames": 2})
+    outcome = track_sequence(stripped, "S1", "Walking_1", tmp_path / "run", config=config,
+                             frames="4:10", seed=0, progress=False, log=lambda *_: None)
+    assert outcome.absent_frames == [4, 5, 6] and outcome.reinitialisations == []
+    assert "frame 7" in outcome.init_method
+    result = read_result(outcome.result_path)
+    np.testing.assert_array_equal(result.frames, np.arange(4, 11))
+    np.testing.assert_array_equal(result.observed, [False] * 3 + [True] * 4)
+    # The body was sized on frame 7's voxels and the file says so.
+    assert "scaled to" in result.attrs["body_model"]
+    assert 1500.0 < result.attrs["body_height_mm"] < 2000.0
+    assert result.attrs["complete"] and result.checkpoint is not None

@@ -232,6 +232,7 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
             log("compiling the likelihood kernels (first run only, ~20 s)…")
         bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
         starts = None  # a MultiStart while its first frames run
+        waiting = []  # flagged records of the frames without a person before the start
         try:
             for frame_number, images in seq.frames(selected[resumed_from:]):
                 t0 = time.perf_counter()
@@ -239,13 +240,13 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 if (config.recovery.enabled and starts is None
                         and (tracker is None or not tracker.initialised)
                         and _absent(measurement, model, config)):
-                    # Nobody in view yet: flagged, nothing to start from (no checkpoint either).
-                    record = _absent_record(model, measurement, frame_number, config,
-                                            time.perf_counter() - t0)
+                    # Nobody in view yet: flagged, nothing to start from. Written with the first
+                    # tracked frame (whose body size the file's attributes record), without a
+                    # checkpoint: a run killed before that starts again.
+                    waiting.append(_absent_record(model, measurement, frame_number, config,
+                                                  time.perf_counter() - t0))
                     if bar is not None:
                         bar.update(1)
-                    _append(writer, [record], [None], tracker, done, len(selected), previous,
-                            dict(meta, init_method=init_method), model, resume or overwrite, bar)
                     continue
                 if tracker is None:
                     model, model_source = _sized_model(_voxel_height(measurement, frame_number),
@@ -283,15 +284,24 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                     checkpoints = [None]
                     if bar is not None:
                         bar.update(1)
+                records = waiting + list(records)
+                checkpoints = [_NO_CHECKPOINT] * len(waiting) + list(checkpoints)
+                waiting = []
                 _append(writer, records, checkpoints, tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
             if starts is not None:  # the sequence ended before the start was chosen
                 starts.finish()
                 tracker, chosen_phrase = _chosen(starts, log)
                 init_method += chosen_phrase
-                _append(writer, starts.records[starts.chosen], starts.checkpoints[starts.chosen],
+                _append(writer, waiting + starts.records[starts.chosen],
+                        [_NO_CHECKPOINT] * len(waiting) + starts.checkpoints[starts.chosen],
                         tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
+                waiting = []
+            if waiting:  # nobody in view in any frame
+                _append(writer, waiting, [_NO_CHECKPOINT] * len(waiting), tracker, done,
+                        len(selected), previous, dict(meta, init_method=init_method), model,
+                        resume or overwrite, bar)
         finally:
             if bar is not None:
                 bar.close()
@@ -335,6 +345,10 @@ def _frame_list(frames, n: int = 10) -> str:
     return shown + (f" … ({len(frames) - n} more)" if len(frames) > n else "")
 
 
+#: ``_append``: this record has no filter state to store (flagged before the track started)
+_NO_CHECKPOINT = object()
+
+
 def _chosen(starts, log) -> tuple[BodyTracker, str]:
     """The kept start's tracker (``starts`` has chosen) and the phrase for ``init_method``."""
     n_frames, n_starts = len(starts.records[0]), len(starts.trackers)
@@ -345,7 +359,8 @@ def _chosen(starts, log) -> tuple[BodyTracker, str]:
 
 def _append(writer, records, checkpoints, tracker, done, n_selected, previous, attrs, model,
             replace, bar) -> None:
-    """Write records, each with the filter state after its frame (None: the tracker's now)."""
+    """Write records, each with the filter state after its frame (None: the tracker's now;
+    ``_NO_CHECKPOINT``: none)."""
     for record, checkpoint in zip(records, checkpoints, strict=True):
         if not writer.started:
             writer.start(record, attrs=attrs, state_names=model.state_names,
@@ -357,7 +372,9 @@ def _append(writer, records, checkpoints, tracker, done, n_selected, previous, a
             done["absent"].append(int(record.frame))
         if record.note and record.observed:
             done["notes"].append((int(record.frame), record.note))
-        if checkpoint is None and tracker is not None and tracker.initialised:
+        if checkpoint is _NO_CHECKPOINT:
+            checkpoint = None
+        elif checkpoint is None:
             checkpoint = tracker.get_state()
         writer.append(record, checkpoint, complete=len(done["frames"]) == n_selected)
     if bar is not None and tracker is not None and tracker.initialised:
