@@ -77,13 +77,15 @@ def absence_run(data: Path, out: Path, config, seed: int, tag: str) -> dict:
     }
 
 
-def compare_run(bench: Path, out: Path, action: str, strategy: str, seed: int) -> dict:
+def compare_run(bench: Path, out: Path, action: str, strategy: str, seed: int,
+                overrides: dict | None = None) -> dict:
     index = [a for _, a, _ in CLIPS].index(action)
     subject, seq_name = f"S{index + 1}", f"{action}_1"
     source = stripped_copy(bench, subject, out / "stripped" / subject)
-    config = with_overrides(TrackConfig(), **{"filter.strategy": strategy})
+    config = with_overrides(TrackConfig(), **{"filter.strategy": strategy, **(overrides or {})})
+    tag = strategy + "".join(f"_{k.split('.')[-1]}={v}" for k, v in (overrides or {}).items())
     t0 = time.perf_counter()
-    outcome = track_sequence(source, subject, seq_name, out / f"compare_{strategy}" / f"seed{seed}",
+    outcome = track_sequence(source, subject, seq_name, out / f"compare_{tag}" / f"seed{seed}",
                              config=config, seed=seed, overwrite=True, progress=False,
                              log=lambda _m: None)
     wall = time.perf_counter() - t0
@@ -129,6 +131,10 @@ def main() -> None:
     parser.add_argument("--compare", default="", help="part 2: comma-separated actions")
     parser.add_argument("--bench-data", default="/work/bench/data")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--strategies", default="apf,iapf", help="part 2: strategies to run")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="part 2: config override of the iapf runs, e.g. "
+                             "recovery.proposal_mirror=false (TOML value)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -151,14 +157,19 @@ def main() -> None:
         for frame, note in r["reinitialisations"]:
             print(f"  frame {frame}: {note}")
     actions = [a for a in args.compare.split(",") if a]
+    from voxelmocap.io.toml import parse_toml
+
+    overrides = {k: parse_toml(f"v = {v}", "--set")["v"]
+                 for k, v in (item.split("=", 1) for item in args.set)}
     for action in actions:
-        for strategy in ("apf", "iapf"):
-            r = compare_run(Path(args.bench_data), out, action, strategy, args.seed)
+        for strategy in args.strategies.split(","):
+            r = compare_run(Path(args.bench_data), out, action, strategy, args.seed,
+                            overrides if strategy == "iapf" else None)
             report.setdefault("compare", {}).setdefault(action, {})[strategy] = r
             print(f"{action:<9s} {strategy:<5s} μ {r['mu_mm']:6.1f} mm  MMTA {r['mmta_pct']:5.1f} %"
                   f"  {r['fps']:.2f} frames/s  flagged {r['flagged']}  re-initialised "
                   f"{r['reinitialisations']}×", flush=True)
-    if actions:
+    if actions and "apf" in args.strategies.split(","):
         cost = proposal_cost(Path(args.bench_data), out, actions[0], args.seed)
         report["proposal_cost"] = cost
         print(f"detector proposal: median {cost['median_ms']:.1f} ms per frame (p90 "
