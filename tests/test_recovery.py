@@ -99,6 +99,13 @@ def test_detector_proposal_moves_the_limbs_to_the_detected_ends():
     assert error(mix.means[0]) < 0.6 * error(previous), (error(mix.means[0]), error(previous))
     # The mirrored labelling is there as a second component.
     assert len(mix) == 2 and mix.labels[1] == "left/right swapped fit"
+    # The detector runs once per observation (the starts of a MultiStart share it).
+    from voxelmocap.detect import find_extremities
+    from voxelmocap.recovery import extremities_of
+
+    assert extremities_of(obs) is extremities_of(obs)
+    np.testing.assert_array_equal(extremities_of(obs).points,
+                                  find_extremities(obs.occupancy, obs.grid).points)
 
 
 def test_detector_proposal_without_detection_stays_on_the_previous_estimate():

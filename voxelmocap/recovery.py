@@ -43,6 +43,7 @@ False
 from __future__ import annotations
 
 import time
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -88,6 +89,27 @@ _MIRROR = {HEAD_TOP: HEAD_TOP, L_WRIST: R_WRIST, R_WRIST: L_WRIST, L_ANKLE: R_AN
 
 
 # ---------------------------------------------------------------------------- the proposal
+#: Extremities of the observations seen lately: the detector is most of a proposal's cost
+#: (≈ 90 %), and the starts of a ``MultiStart`` and a re-initialisation share one observation.
+_EXTREMITIES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def extremities_of(observation):
+    """:func:`voxelmocap.detect.find_extremities` of an observation, computed once per object."""
+    from .detect import find_extremities
+
+    try:
+        return _EXTREMITIES[observation]
+    except (KeyError, TypeError):
+        pass
+    ex = find_extremities(observation.occupancy, observation.grid)
+    try:
+        _EXTREMITIES[observation] = ex
+    except TypeError:  # not weak-referenceable: no cache
+        pass
+    return ex
+
+
 class MixtureProposal:
     """Equal-weight mixture of Gaussians truncated to ``[low, high]``, diagonal, one shared std.
 
@@ -249,7 +271,7 @@ def detector_proposal(observation, model, *, std, previous=None, log_likelihood=
         ``(P, 27) → (P,)`` of this frame; needed without ``previous`` (ranks the hypotheses of
         :func:`voxelmocap.initialise.initial_pose`).
     extremities : Extremities, optional
-        This frame's extremities if already found (else :func:`find_extremities` runs).
+        This frame's extremities if already found (else :func:`extremities_of`).
     gate_mm : float
         A tip farther than this from every end's reach is not used (a ghost or a bump).
     mirror : bool
@@ -264,11 +286,8 @@ def detector_proposal(observation, model, *, std, previous=None, log_likelihood=
     MixtureProposal
         Centred on ``previous`` alone when nothing is detected.
     """
-    from .detect import find_extremities
-
     t0 = time.perf_counter()
-    ex = extremities if extremities is not None else find_extremities(observation.occupancy,
-                                                                       observation.grid)
+    ex = extremities if extremities is not None else extremities_of(observation)
     if previous is None:
         if ex is None or log_likelihood is None:
             raise ValueError("detector_proposal: without a previous estimate it needs a person "
@@ -515,12 +534,11 @@ class Recovery:
         the likelihood; the filter starts from a mixture of the ``init.hypotheses`` best, and
         this frame's IAPF proposal is that mixture too.
         """
-        from .detect import find_extremities
         from .initialise import initial_pose
 
         tracker = self.tracker
         model = tracker.model
-        ex = find_extremities(observation.occupancy, observation.grid)
+        ex = extremities_of(observation)
         ll = tracker.log_likelihood(observation)
         n = tracker.config.init.hypotheses
         states, how = initial_pose(ex, model, ll, n_best=max(n, 1))
