@@ -239,10 +239,12 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
                 measurement = stage.measure(images, frame=frame_number)
                 if (config.recovery.enabled and starts is None
                         and (tracker is None or not tracker.initialised)
+                        and not _starts_from_ground_truth(config, gt, frame_number)
                         and _absent(measurement, model, config)):
-                    # Nobody in view yet: flagged, nothing to start from. Written with the first
-                    # tracked frame (whose body size the file's attributes record), without a
-                    # checkpoint: a run killed before that starts again.
+                    # Nobody in view yet: flagged, nothing to start from (a ground-truth start
+                    # needs no voxels; the tracker then flags the frame). Written with the
+                    # first tracked frame (whose body size the file's attributes record),
+                    # without a checkpoint: a run killed before that starts again.
                     waiting.append(_absent_record(model, measurement, frame_number, config,
                                                   time.perf_counter() - t0))
                     if bar is not None:
@@ -317,6 +319,12 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
                         resumed_from, float(np.mean(done["seconds"])), done["absent"],
                         done["notes"])
+
+
+def _starts_from_ground_truth(config, gt, frame) -> bool:
+    """Whether ``BodyTracker.initial_state`` would start this frame from the ground truth."""
+    return (config.init.method in ("ground_truth", "auto")
+            and ground_truth_landmarks(gt, frame) is not None)
 
 
 def _absent(measurement, model, config) -> bool:
