@@ -93,12 +93,13 @@ def test_detector_proposal_moves_the_limbs_to_the_detected_ends():
         return float(np.linalg.norm(MODEL.landmarks(state[None]) - MODEL.landmarks(truth[None]),
                                     axis=2).mean())
 
-    mix = detector_proposal(obs, MODEL, std=0.01, previous=previous)
+    mix = detector_proposal(obs, MODEL, std=0.01, previous=previous, mirror=True)
     assert mix.labels[0].startswith("fit of")
     # The warm-started fit lands nearer the truth than where it started.
     assert error(mix.means[0]) < 0.6 * error(previous), (error(mix.means[0]), error(previous))
-    # The mirrored labelling is there as a second component.
+    # The mirrored labelling is there as a second component when asked for (off by default).
     assert len(mix) == 2 and mix.labels[1] == "left/right swapped fit"
+    assert len(detector_proposal(obs, MODEL, std=0.01, previous=previous)) == 1
     # The detector runs once per observation (the starts of a MultiStart share it).
     from voxelmocap.detect import find_extremities
     from voxelmocap.recovery import extremities_of

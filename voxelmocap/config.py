@@ -242,7 +242,10 @@ class RecoveryConfig:
     #: spread of each detector-proposal component, as a multiple of the propagation noise
     proposal_spread: float = 1.0
     proposal_gate_mm: float = 400.0  #: a tip farther than this from every body end is ignored
-    proposal_mirror: bool = True  #: add the left/right-swapped fit as a second component
+    #: add the left/right-swapped fit as a second component. Off: measured without the answer
+    #: (seed 0, docs/benchmarks.md) it let a wrong side win: Jog 280 mm with it, 86 without
+    #: (apf 79); Walking 73 / 83 (apf 84); Box 177 / 148 (apf 168)
+    proposal_mirror: bool = False
     #: weight layer 1 by p/q (Table I line 8). Off (Fontmarty's practice): the proposal's
     #: particles far from the dynamics would get weight ≈ 0, so the proposal could not recover
     proposal_correction: bool = False

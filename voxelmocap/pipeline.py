@@ -339,7 +339,7 @@ def _absent(measurement, model, config) -> bool:
 def _absent_record(model, measurement, frame, config, seconds):
     """The flagged record of a frame without a person before the track started."""
     from .body import BodyModel
-    from .recovery import absent_record
+    from .tracker import absent_record
 
     model = model or BodyModel()
     fc = config.filter

@@ -8,8 +8,9 @@ alone cannot (issue 11; Fontmarty et al., paper 004 §III-A and Table I):
   frame's extremities (:func:`voxelmocap.detect.find_extremities`). While tracking it is cheap:
   the previous estimate is the warm start, each tip is labelled with the body end (head, wrists,
   ankles) it is nearest to, and only the chains that end there move (a damped Gauss–Newton fit
-  with a batched finite-difference Jacobian, a few milliseconds). A second component labels the
-  hands and feet the other way round (left ↔ right), the filter's most common mistake. Without a
+  with a batched finite-difference Jacobian, a few milliseconds). Optionally a second component
+  labels the hands and feet the other way round (left ↔ right); off by default, it let a wrong
+  side win on a jog (``docs/benchmarks.md``). Without a
   previous estimate the mixture is built around the best hypotheses of
   :func:`voxelmocap.initialise.initial_pose` (seconds: only when a track starts again).
 * :func:`person_presence` — a frame *has no person* when the largest 26-connected blob of
@@ -254,7 +255,7 @@ def _label(model, state, tips, gate_mm: float):
 
 
 def detector_proposal(observation, model, *, std, previous=None, log_likelihood=None,
-                      extremities=None, gate_mm: float = 400.0, mirror: bool = True,
+                      extremities=None, gate_mm: float = 400.0, mirror: bool = False,
                       n_best: int = 4, iterations: int = 8) -> MixtureProposal:
     """The IAPF importance function of one frame, built from its detected extremities.
 
@@ -429,35 +430,13 @@ class LostTrack:
 
 
 # ---------------------------------------------------------------------------- tracker glue
-def absent_record(model, observation, state, *, frame: int, n_layers: int, variances,
-                  seconds: float = 0.0):
-    """The :class:`~voxelmocap.tracker.FrameRecord` of a frame without a person.
-
-    It repeats ``state`` (the last estimate, or wherever the track will start) so that every
-    export stays a valid pose, with ``observed = False``; ESS and β are NaN (no filter step).
-    """
-    from .body import joints_to_endpoints
-    from .likelihood import log_likelihood_from_scores, part_scores
-    from .tracker import FrameRecord
-
-    state = np.asarray(state, dtype=float)
-    joints = model.forward(state[None]).joints
-    scores = part_scores(observation, model, state[None])[0]
-    return FrameRecord(
-        frame=int(frame), state=state.copy(), map_state=state.copy(), landmarks=joints[0],
-        endpoints=joints_to_endpoints(joints)[0], part_scores=scores,
-        ess=np.full(n_layers, np.nan), betas=np.full(n_layers, np.nan), seconds=seconds,
-        log_likelihood=float(log_likelihood_from_scores(scores, variances=variances)),
-        observed=False, note="no person in view")
-
-
 class Recovery:
     """Absence flags, lost-track detection and re-initialisation around a body tracker.
 
     :meth:`voxelmocap.tracker.BodyTracker.observe` delegates here (``config.recovery``). Per frame:
 
     1. :func:`person_presence`; without a person the filter is *not* stepped and
-       :func:`absent_record` is returned (the last estimate, ``observed = False``);
+       ``BodyTracker.absent_record`` is returned (the last estimate, ``observed = False``);
     2. with a person after an absence, or after the lost-track rule fired, the filter starts
        again from the voxels (:meth:`reinitialise`) and the record's ``note`` says so;
     3. the filter steps (with the detector proposal when the strategy is ``iapf``), and the
@@ -484,10 +463,6 @@ class Recovery:
         self.last_state: np.ndarray | None = None
         self.events: list[tuple[int, str]] = []
 
-    def n_layers(self) -> int:
-        f = self.tracker.filter
-        return 1 if f.strategy == "sir" else f.n_layers
-
     def presence(self, observation) -> Presence:
         return person_presence(observation.occupancy, observation.grid, self.tracker.model,
                                min_share=self.config.min_volume_share)
@@ -505,10 +480,8 @@ class Recovery:
             if state is None:
                 state = (tracker.filter.estimate if tracker.filter.estimate is not None
                          else tracker.model.default_state())
-            return absent_record(tracker.model, observation, tracker.model.clip(state[None])[0],
-                                 frame=frame, n_layers=self.n_layers(),
-                                 variances=tracker.variances,
-                                 seconds=time.perf_counter() - t0)
+            return tracker.absent_record(observation, tracker.model.clip(state[None])[0],
+                                         frame=frame, seconds=time.perf_counter() - t0)
         note = ""
         reason = ("the person is back in view" if self.absent and self.last_state is not None
                   else self.pending)

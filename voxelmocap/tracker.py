@@ -49,6 +49,7 @@ __all__ = [
     "BodyTracker",
     "Collector",
     "FrameRecord",
+    "absent_record",
     "build_dynamics",
     "build_filter",
     "ground_truth_landmarks",
@@ -237,6 +238,27 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36)
     candidates[:, yaw_i] = np.linspace(-np.pi, np.pi, n_yaw, endpoint=False)
     scores = log_likelihood(measurement, model, candidates, variances=variances)
     return candidates[int(np.argmax(scores))]
+
+
+def absent_record(model, observation, state, *, frame: int, n_layers: int, variances,
+                  seconds: float = 0.0) -> FrameRecord:
+    """The record of a frame without a person (``voxelmocap.recovery``): nothing was tracked.
+
+    It repeats ``state`` (the last estimate, or wherever the track will start) so that every
+    export stays a valid pose, with ``observed = False``; ESS and β are NaN (no filter step).
+    """
+    from .body import joints_to_endpoints
+    from .likelihood import log_likelihood_from_scores, part_scores
+
+    state = np.asarray(state, dtype=float)
+    joints = model.forward(state[None]).joints
+    scores = part_scores(observation, model, state[None])[0]
+    return FrameRecord(
+        frame=int(frame), state=state.copy(), map_state=state.copy(), landmarks=joints[0],
+        endpoints=joints_to_endpoints(joints)[0], part_scores=scores,
+        ess=np.full(n_layers, np.nan), betas=np.full(n_layers, np.nan), seconds=seconds,
+        log_likelihood=float(log_likelihood_from_scores(scores, variances=variances)),
+        observed=False, note="no person in view")
 
 
 def ground_truth_landmarks(gt, frame: int) -> np.ndarray | None:
@@ -479,6 +501,14 @@ class BodyTracker:
             for observer in self.observers:
                 observer(record, self)
         return record
+
+    def absent_record(self, observation, state, *, frame: int, seconds: float = 0.0
+                      ) -> FrameRecord:
+        """:func:`absent_record` with this tracker's model, layers and variances."""
+        pf = self.filter
+        return absent_record(self.model, observation, state, frame=frame,
+                             n_layers=1 if pf.strategy == "sir" else pf.n_layers,
+                             variances=self.variances, seconds=seconds)
 
     @property
     def recovery(self):
