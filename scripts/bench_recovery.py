@@ -135,10 +135,18 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="part 2: config override of the iapf runs, e.g. "
                              "recovery.proposal_mirror=false (TOML value)")
+    parser.add_argument("--cost", default="",
+                        help="only time the detector proposal on this clip (needs its apf run "
+                             "from an earlier --compare in OUT)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     report = {}
+    if args.cost:
+        cost = proposal_cost(Path(args.bench_data), out, args.cost, args.seed)
+        print(f"detector proposal: median {cost['median_ms']:.1f} ms per frame (p90 "
+              f"{cost['p90_ms']:.1f} ms, {cost['frames']} frames of {args.cost})")
+        return
     if args.absence:
         data = Path(args.absence_data) if args.absence_data else out / "absence_data"
         if not (data / "absence.json").exists():
