@@ -73,6 +73,11 @@ def _huge_voxels(data, tmp):
     return _track(data, tmp, "--config", str(tmp / "cfg.toml"))
 
 
+def _bad_recovery_share(data, tmp):
+    (tmp / "cfg.toml").write_text("[recovery]\nmin_volume_share = -0.5\n")
+    return _track(data, tmp, "--config", str(tmp / "cfg.toml"))
+
+
 def _negative_frames(data, tmp):
     return _track(data, tmp, "--frames", "-5:3")
 
@@ -330,6 +335,8 @@ CASES: list[Case] = [
     Case("--cameras names a camera the sequence does not have", _unknown_camera,
          ("--cameras", "unknown camera 'C9'")),
     Case("voxel_size = 1e9 in the config", _huge_voxels, ("voxel_size", "between")),
+    Case("min_volume_share = -0.5 in the config's [recovery]", _bad_recovery_share,
+         ("{tmp}/cfg.toml", "'recovery.min_volume_share' must be > 0")),
     Case("--frames -5:3", _negative_frames, ("--frames", "-5")),
     Case("dump --out names an existing folder", _dump_out_is_folder, ("{tmp}/existing",)),
     Case("view --out below a file", _view_out_unwritable, ("{tmp}/file",)),

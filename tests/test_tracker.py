@@ -235,7 +235,6 @@ def test_every_filter_option_reaches_the_filter_from_toml():
         ("beta_max = -1.0", "'filter.beta_max' must be > 0"),
         ("resampling = 'magic'", "'filter.resampling' must be one of"),
         ("iapf_fractions = [0.8, 0.5]", "'filter.iapf_fractions' must be two fractions"),
-        ("strategy = 'iapf'", "no measurement-driven proposal"),
         ("velocity_factor = 1.5", "factor must be in [0, 1]"),
         ("elbow_singular_std_rad = -0.1", "must be >= 0"),
     ],

@@ -33,6 +33,7 @@ __all__ = [
     "InitConfig",
     "LikelihoodConfig",
     "MeasurementConfig",
+    "RecoveryConfig",
     "SilhouetteConfig",
     "TrackConfig",
     "config_from_dict",
@@ -154,8 +155,8 @@ class FilterConfig:
 
     layers: int = 6
     particles: int = 600
-    #: ``iapf`` needs a measurement-driven proposal, which the body tracker does not have yet:
-    #: use it with ``iapf_fractions = [f, 0]`` (the rest of layer 1 then comes from the prior)
+    #: ``iapf``: a share of layer 1 comes from the detector proposal (``iapf_fractions``,
+    #: ``[recovery]``; ``voxelmocap.recovery.detector_proposal``)
     strategy: str = _choice("apf", "sir", "iapf", default="apf")
     #: target share of surviving particles per layer (β by bisection), in (0, 1]. Measured: 0.3
     #: helps a walk (μ 59 → 46 mm, 5 seeds) and a jog (60 → 57 mm) but hurts a box sequence
@@ -278,6 +279,37 @@ class ExportConfig:
 
 
 @dataclass(frozen=True)
+class RecoveryConfig:
+    """Frames without a person, lost tracks and the IAPF's detector proposal (``voxelmocap.recovery``)."""
+
+    #: flag frames without a person (not tracked) and re-initialise when the person comes back
+    #: or the track is lost (``BodyTracker.observe``); off: every frame is tracked
+    enabled: bool = True
+    #: a frame has a person when its largest blob of occupied voxels holds at least this share
+    #: of the body model's volume (a visual hull contains the body: 1.0–1.4 × when in view)
+    min_volume_share: float = 0.3
+    #: lost track: a frame is bad when its log-likelihood is more than ``lost_drop`` below the
+    #: median of the last ``lost_window`` good frames, or the mean Empty score of the parts is
+    #: above ``lost_empty``; ``lost_patience`` bad frames in a row make the track lost (a good
+    #: track varies between −11 and −26 on the rendered walk, median −14)
+    lost_window: int = 30
+    lost_drop: float = 20.0
+    lost_empty: float = 0.5
+    lost_patience: int = 3
+    reinitialise: bool = True  #: re-initialise a lost track (off: only flag it in the log)
+    #: spread of each detector-proposal component, as a multiple of the propagation noise
+    proposal_spread: float = 1.0
+    proposal_gate_mm: float = 400.0  #: a tip farther than this from every body end is ignored
+    #: add the left/right-swapped fit as a second component. Off: measured without the answer
+    #: (seed 0, docs/benchmarks.md) it let a wrong side win: Jog 280 mm with it, 86 without
+    #: (apf 79); Walking 73 / 83 (apf 84); Box 177 / 148 (apf 168)
+    proposal_mirror: bool = False
+    #: weight layer 1 by p/q (Table I line 8). Off (Fontmarty's practice): the proposal's
+    #: particles far from the dynamics would get weight ≈ 0, so the proposal could not recover
+    proposal_correction: bool = False
+
+
+@dataclass(frozen=True)
 class TrackConfig:
     """Everything a tracking run depends on, apart from the data and the seed."""
 
@@ -286,6 +318,7 @@ class TrackConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
     init: InitConfig = field(default_factory=InitConfig)
     export: ExportConfig = field(default_factory=ExportConfig)
+    recovery: RecoveryConfig = field(default_factory=RecoveryConfig)
 
 
 # ---------------------------------------------------------------------- conversion and checks
@@ -392,7 +425,9 @@ def _check_ranges(obj, prefix: str, source) -> None:
     positive = {"voxel_size", "surface_sigma", "layers", "particles", "translation_std_mm",
                 "rotation_std_rad", "joint_std_rad", "background_frames", "hypotheses",
                 "trunk_layers", "trunk_particles", "limb_layers", "limb_particles",
-                "root_pitch_prior_deg"}
+                "root_pitch_prior_deg",
+                "min_volume_share", "lost_window", "lost_drop", "lost_empty", "lost_patience",
+                "proposal_spread", "proposal_gate_mm"}
     for name in positive:
         if hasattr(obj, name) and getattr(obj, name) is not None and not getattr(obj, name) > 0:
             key = f"{prefix}.{name}" if prefix else name
@@ -498,10 +533,6 @@ def _check_filter(obj: FilterConfig, prefix: str, source) -> None:
         raise InputError(source, f"filter dynamics: {exc} (keys '{prefix}.velocity_factor', "
                                  f"'{prefix}.elbow_threshold_rad', "
                                  f"'{prefix}.elbow_singular_std_rad')") from None
-    if obj.strategy == "iapf" and obj.iapf_fractions[1] > 0:
-        raise InputError(source, f"key '{prefix}.iapf_fractions': the tracker has no "
-                                 "measurement-driven proposal for the iapf strategy yet; set the "
-                                 "proposal share to 0, e.g. [0.8, 0.0]")
 
 
 def config_from_dict(data: dict, source="config") -> TrackConfig:

@@ -6,7 +6,8 @@
   averaged over frames, as in the paper.
 * :func:`evaluate_sequence`: the paper's Table 1 row for one sequence (μ, σ of the per-frame mean
   error, MMTP, MMTA, plus the mean HumanEva ``error()``), skipping frames whose ground truth has a
-  disabled endpoint.
+  disabled endpoint and frames without an estimate (every estimated endpoint disabled: a frame the
+  tracker flagged without a person, ``voxelmocap.recovery``).
 * :func:`evaluate_points`: the same errors against any named 3-D reference (a TRC or CSV mapped
   onto some of the landmarks), with missing reference values left out.
 """
@@ -177,6 +178,8 @@ class SequenceScores:
     mmtp_mm: float
     mmta_pct: float
     humaneva_error_mm: float  #: mean over frames of the toolkit's error()
+    #: frames skipped because the estimate is flagged absent (every estimated endpoint disabled)
+    unobserved: int = 0
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -197,7 +200,9 @@ def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: fl
     est_enabled : (F, 20) array_like of bool, optional
         Estimate flags: disabled endpoints are left out of the HumanEva error (as the toolkit
         does); a landmark with no enabled estimate counts as unmatched for MMTA and is left out
-        of μ.
+        of μ. A frame with *every* endpoint disabled has no estimate (the tracker flagged it
+        without a person): it is skipped like a frame without ground truth and counted in
+        ``unobserved``.
 
     Returns
     -------
@@ -212,7 +217,9 @@ def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: fl
         raise ValueError(f"endpoints must both be (F, 20, 3), got {est.shape} and {gt.shape}")
     n = len(est)
     enabled = np.ones((n, 20), bool) if gt_enabled is None else np.asarray(gt_enabled, bool)
-    valid = enabled.all(axis=1)
+    observed = (np.ones(n, bool) if est_enabled is None
+                else np.asarray(est_enabled, bool).reshape(n, 20).any(axis=1))
+    valid = enabled.all(axis=1) & observed
     errors = np.full((n, 15), np.nan)
     est_flags = None if est_enabled is None else np.asarray(est_enabled, bool)[valid]
     # A landmark whose estimated endpoints are all disabled has NaN error: never matched (MMTA
@@ -234,12 +241,13 @@ def evaluate_sequence(est_endpoints, gt_endpoints, gt_enabled=None, *, delta: fl
     m = m[~np.isnan(m)]
     scores = SequenceScores(
         frames=int(valid.sum()),
-        skipped=int((~valid).sum()),
+        skipped=int((~enabled.all(axis=1)).sum()),
         mu_mm=float(m.mean()) if len(m) else float("nan"),
         sigma_mm=float(m.std()) if len(m) else float("nan"),
         mmtp_mm=mmtp,
         mmta_pct=mmta,
         humaneva_error_mm=float(np.nanmean(he[valid])) if valid.any() else float("nan"),
+        unobserved=int((enabled.all(axis=1) & ~observed).sum()),
     )
     per_frame = {"valid": valid, "landmark_errors": errors, "mean_error": mean_error,
                  "mmta": mmta_f, "mmtp": mmtp_f, "humaneva_error": he}

@@ -72,6 +72,10 @@ class TrackOutcome:
     resumed_from: int  #: frames already done when the run started (0 for a fresh run)
     seconds_per_frame: float
     export_paths: list = dataclasses.field(default_factory=list)  #: TRC / C3D / CSV written
+    #: frames flagged without a person (not tracked; ``config.recovery``), in this run
+    absent_frames: list = dataclasses.field(default_factory=list)
+    #: ``(frame, note)`` of every re-initialisation in this run
+    reinitialisations: list = dataclasses.field(default_factory=list)
 
 
 
@@ -250,10 +254,13 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             # resumed run sees the same background model as an uninterrupted one.
             for _, images in seq.frames(selected[:resumed_from]):
                 stage.masks(images)
-        done = {"frames": [], "endpoints": [], "seconds": []}
+        done = {"frames": [], "endpoints": [], "seconds": [], "observed": [], "absent": [],
+                "notes": []}
         if previous is not None:
-            for key in done:
+            for key in ("frames", "endpoints", "seconds"):
                 done[key].extend(getattr(previous, key))
+            done["observed"].extend(np.ones(len(previous), bool) if previous.observed is None
+                                    else previous.observed)
         if not _kernels_cached():
             say("compiling the likelihood kernels (first run only, ~20 s)…")
         logger.debug("result %s, frames %s, seed %d, frame rate %g Hz", result_path,
@@ -262,12 +269,26 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             recorder.start(seq, stage.grid)
         bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
         starts = None  # a MultiStart while its first frames run
+        waiting = []  # flagged records of the frames without a person before the start
         try:
             for frame_number, images in seq.frames(selected[resumed_from:]):
                 t0 = time.perf_counter()
                 measurement = stage.measure(images, frame=frame_number)
                 if recorder is not None:
                     recorder.observe(frame_number, images, measurement)
+                if (config.recovery.enabled and starts is None
+                        and (tracker is None or not tracker.initialised)
+                        and not _starts_from_ground_truth(config, gt, frame_number)
+                        and _absent(measurement, model, config)):
+                    # Nobody in view yet: flagged, nothing to start from (a ground-truth start
+                    # needs no voxels; the tracker then flags the frame). Written with the
+                    # first tracked frame (whose body size the file's attributes record),
+                    # without a checkpoint: a run killed before that starts again.
+                    waiting.append(_absent_record(model, measurement, frame_number, config,
+                                                  time.perf_counter() - t0))
+                    if bar is not None:
+                        bar.update(1)
+                    continue
                 if tracker is None:
                     model, model_source = _sized_model(_voxel_height(measurement, frame_number),
                                                        frame_number)
@@ -300,11 +321,16 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                     # The file's seconds are the whole frame's: measurement, start and filter.
                     if recorder is not None and recorder not in tracker.observers:
                         tracker.observers.append(recorder)
-                    record = tracker.step(measurement, frame=frame_number)
+                    record = (tracker.observe(measurement, frame=frame_number)
+                              if config.recovery.enabled
+                              else tracker.step(measurement, frame=frame_number))
                     records = [dataclasses.replace(record, seconds=time.perf_counter() - t0)]
                     checkpoints = [None]
                     if bar is not None:
                         bar.update(1)
+                records = waiting + list(records)
+                checkpoints = [_NO_CHECKPOINT] * len(waiting) + list(checkpoints)
+                waiting = []
                 _append(writer, records, checkpoints, tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
             if starts is not None:  # the sequence ended before the start was chosen
@@ -312,18 +338,65 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                 tracker, chosen_phrase = _chosen(starts, say)
                 _replay(recorder, starts.records[starts.chosen])
                 init_method += chosen_phrase
-                _append(writer, starts.records[starts.chosen], starts.checkpoints[starts.chosen],
+                _append(writer, waiting + starts.records[starts.chosen],
+                        [_NO_CHECKPOINT] * len(waiting) + starts.checkpoints[starts.chosen],
                         tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
+                waiting = []
+            if waiting:  # nobody in view in any frame
+                _append(writer, waiting, [_NO_CHECKPOINT] * len(waiting), tracker, done,
+                        len(selected), previous, dict(meta, init_method=init_method), model,
+                        resume or overwrite, bar)
         finally:
             if bar is not None:
                 bar.close()
 
     frames_done = np.array(done["frames"])
-    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps)
+    _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps,
+                   np.array(done["observed"], bool))
+    for frame, note in done["notes"]:
+        log(f"frame {frame}: {note}")
+    if done["absent"]:
+        log(f"{len(done['absent'])} frame(s) flagged without a person (not tracked, skipped by "
+            f"'voxelmocap evaluate'): {_frame_list(done['absent'])}")
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
-                        resumed_from, float(np.mean(done["seconds"])),
-                        _landmark_exports(result_path, config))
+                        resumed_from, float(np.mean(done["seconds"])), _landmark_exports(result_path, config),
+                        done["absent"], done["notes"])
+
+
+def _starts_from_ground_truth(config, gt, frame) -> bool:
+    """Whether ``BodyTracker.initial_state`` would start this frame from the ground truth."""
+    return (config.init.method in ("ground_truth", "auto")
+            and ground_truth_landmarks(gt, frame) is not None)
+
+
+def _absent(measurement, model, config) -> bool:
+    """Whether a frame has no person (``voxelmocap.recovery.person_presence``)."""
+    from .body import BodyModel
+    from .recovery import person_presence
+
+    return not person_presence(measurement.occupancy, measurement.grid, model or BodyModel(),
+                               min_share=config.recovery.min_volume_share).present
+
+
+def _absent_record(model, measurement, frame, config, seconds):
+    """The flagged record of a frame without a person before the track started."""
+    from .body import BodyModel
+    from .tracker import absent_record, annealing_layers
+
+    model = model or BodyModel()
+    return absent_record(model, measurement, model.default_state(), frame=frame,
+                         n_layers=annealing_layers(config),
+                         variances=config.likelihood.variances, seconds=seconds)
+
+
+def _frame_list(frames, n: int = 10) -> str:
+    shown = ", ".join(str(int(f)) for f in frames[:n])
+    return shown + (f" … ({len(frames) - n} more)" if len(frames) > n else "")
+
+
+#: ``_append``: this record has no filter state to store (flagged before the track started)
+_NO_CHECKPOINT = object()
 
 
 def _replay(recorder, records) -> None:
@@ -343,21 +416,29 @@ def _chosen(starts, say) -> tuple[BodyTracker, str]:
 
 def _append(writer, records, checkpoints, tracker, done, n_selected, previous, attrs, model,
             replace, bar) -> None:
-    """Write records, each with the filter state after its frame (None: the tracker's now)."""
+    """Write records, each with the filter state after its frame (None: the tracker's now;
+    ``_NO_CHECKPOINT``: none)."""
     for record, checkpoint in zip(records, checkpoints, strict=True):
         if not writer.started:
             writer.start(record, attrs=attrs, state_names=model.state_names,
                          part_names=model.part_names, previous=previous, replace=replace)
             run_started()  # the result exists: the run's log file is written from now on
         for key, value in (("frames", record.frame), ("endpoints", record.endpoints),
-                           ("seconds", record.seconds)):
+                           ("seconds", record.seconds), ("observed", record.observed)):
             done[key].append(value)
-        writer.append(record, tracker.get_state() if checkpoint is None else checkpoint,
-                      complete=len(done["frames"]) == n_selected)
+        if not record.observed:
+            done["absent"].append(int(record.frame))
+        if record.note and record.observed:
+            done["notes"].append((int(record.frame), record.note))
+        if checkpoint is _NO_CHECKPOINT:
+            checkpoint = None
+        elif checkpoint is None:
+            checkpoint = tracker.get_state()
+        writer.append(record, checkpoint, complete=len(done["frames"]) == n_selected)
         logger.debug("frame %d: log-likelihood %.2f, ESS per layer %s, %.3f s", record.frame,
                      record.log_likelihood, " ".join(f"{e:.0f}" for e in record.ess),
                      record.seconds)
-    if bar is not None:
+    if bar is not None and tracker is not None and tracker.initialised:
         bar.set_postfix(loglik=f"{tracker.filter.mean_log_likelihood:.2f}",
                         fps=f"{1.0 / max(records[-1].seconds, 1e-9):.2f}")
 
@@ -406,6 +487,8 @@ def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
             raise InputError(path, f"cannot resume: its {key} differs from this run's "
                                    "(use --overwrite to start again)")
     if len(previous) and previous.checkpoint is None:
+        if previous.observed is not None and not previous.observed.any():
+            return None  # only frames without a person, before any start: start again
         raise InputError(path, "cannot resume: the file has no checkpoint")
     return previous if len(previous) else None  # killed before its first frame: start afresh
 
@@ -439,8 +522,12 @@ def _kernels_cached() -> bool:
         return True
 
 
-def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
-    """The body_pose XML (HUMANEVA.md §6) and the BVH of tracked poses."""
+def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps, observed=None) -> None:
+    """The body_pose XML (HUMANEVA.md §6) and the BVH of tracked poses.
+
+    Frames flagged without a person (``observed`` False) have every endpoint disabled in the
+    XML; the BVH holds the repeated last estimate there (a BVH has no flags).
+    """
     from .io.body_pose_xml import write_body_pose_xml
     from .io.bvh_writer import write_landmarks_bvh
     from .joints import endpoints_to_landmarks
@@ -451,7 +538,9 @@ def _write_exports(xml_path, bvh_path, seq, gt, frames, endpoints, fps) -> None:
                   "SubjectName": seq.subject, "ActionType": seq.action, "Trial": seq.trial,
                   "FrameStart": int(frames[0]), "FrameEnd": int(frames[-1]),
                   "Partition": source.get("Partition", "Validate")}
-    write_body_pose_xml(xml_path, frames, endpoints, attributes=attributes)
+    enabled = None if observed is None else np.repeat(np.asarray(observed, bool)[:, None], 20,
+                                                      axis=1)
+    write_body_pose_xml(xml_path, frames, endpoints, enabled, attributes=attributes)
     write_landmarks_bvh(bvh_path, endpoints_to_landmarks(endpoints), fps)
 
 

@@ -49,6 +49,7 @@ __all__ = [
     "BodyTracker",
     "Collector",
     "FrameRecord",
+    "absent_record",
     "build_dynamics",
     "build_filter",
     "ground_truth_landmarks",
@@ -94,7 +95,10 @@ class FrameRecord:
         Each landmark's confidence in [0, 1] (:func:`voxelmocap.confidence.landmark_confidence`
         of the spread and ``part_scores``); NaN when unknown.
     observed : bool
-        Whether a person was seen in the frame (True until absence detection sets it).
+        False for a frame without a person (``voxelmocap.recovery``): the filter did not step
+        and the estimate repeats the last one; evaluations skip such frames.
+    note : str
+        What happened besides tracking, e.g. a re-initialisation (empty when nothing did).
     """
 
     frame: int
@@ -111,6 +115,7 @@ class FrameRecord:
     landmark_spread: np.ndarray = field(default_factory=lambda: np.full(15, np.nan))
     confidence: np.ndarray = field(default_factory=lambda: np.full(15, np.nan))
     observed: bool = True
+    note: str = ""
 
 
 Observer = Callable[[FrameRecord, "BodyTracker"], None]
@@ -254,6 +259,39 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36)
     return candidates[int(np.argmax(scores))]
 
 
+def annealing_layers(config: TrackConfig) -> int:
+    """Layers per frame of the filter a config builds (one ESS and β each in a record)."""
+    fc = config.filter
+    if fc.strategy == "sir":
+        return 1
+    if fc.search == "hierarchical" and fc.strategy == "apf":
+        from .hierarchy import body_partitions
+
+        return sum(p.layers for p in body_partitions(fc))
+    return fc.layers
+
+
+def absent_record(model, observation, state, *, frame: int, n_layers: int, variances,
+                  seconds: float = 0.0) -> FrameRecord:
+    """The record of a frame without a person (``voxelmocap.recovery``): nothing was tracked.
+
+    It repeats ``state`` (the last estimate, or wherever the track will start) so that every
+    export stays a valid pose, with ``observed = False``; ESS and β are NaN (no filter step).
+    """
+    from .body import joints_to_endpoints
+    from .likelihood import log_likelihood_from_scores, part_scores
+
+    state = np.asarray(state, dtype=float)
+    joints = model.forward(state[None]).joints
+    scores = part_scores(observation, model, state[None])[0]
+    return FrameRecord(
+        frame=int(frame), state=state.copy(), map_state=state.copy(), landmarks=joints[0],
+        endpoints=joints_to_endpoints(joints)[0], part_scores=scores,
+        ess=np.full(n_layers, np.nan), betas=np.full(n_layers, np.nan), seconds=seconds,
+        log_likelihood=float(log_likelihood_from_scores(scores, variances=variances)),
+        observed=False, note="no person in view")
+
+
 def ground_truth_landmarks(gt, frame: int) -> np.ndarray | None:
     """A frame's true landmarks ``(15, 3)`` (mm) for :meth:`BodyTracker.initialise`.
 
@@ -326,6 +364,11 @@ class BodyTracker:
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
         self._settle = 0  # settling steps still due on the next frame (see settle)
+        #: the IAPF proposal of the next frame when set (a re-initialisation's hypotheses), and
+        #: the last one used (``voxelmocap.recovery.MixtureProposal``)
+        self.pending_proposal = None
+        self.last_proposal = None
+        self._recovery = None
 
     def __repr__(self) -> str:
         return f"BodyTracker({self.model!r}, {self.filter!r})"
@@ -392,7 +435,8 @@ class BodyTracker:
         pf = self.filter
         if hasattr(pf, "step_partitioned"):
             return pf.step_partitioned(self.partition_log_likelihood(observation, spent))
-        return pf.step(self.log_likelihood(observation, spent))
+        proposal = self.proposal(observation) if pf.strategy == "iapf" else {}
+        return pf.step(self.log_likelihood(observation, spent), **proposal)
 
     def settle(self, observation) -> None:
         """Run ``config.init.settle_steps`` filter steps on the first frame (not recorded).
@@ -500,6 +544,61 @@ class BodyTracker:
             observer(record, self)
         return record
 
+    def proposal(self, observation) -> dict:
+        """The IAPF's detector proposal for this frame, as ``AnnealedParticleFilter.step`` options.
+
+        :func:`voxelmocap.recovery.detector_proposal` around the latest estimate (or the mean of
+        the particles right after a start), or the pending re-initialisation mixture; its
+        log-density is passed (importance correction) only with ``recovery.proposal_correction``.
+        """
+        from .recovery import detector_proposal
+
+        rc, pf = self.config.recovery, self.filter
+        mix, self.pending_proposal = self.pending_proposal, None
+        if pf.iapf_fractions[1] == 0:
+            return {}  # no particle comes from the proposal: nothing to build
+        if mix is None:
+            previous = pf.estimate if pf.estimate is not None else pf.weights @ pf.particles
+            mix = detector_proposal(observation, self.model, std=rc.proposal_spread * self.noise_std,
+                                    previous=previous, gate_mm=rc.proposal_gate_mm,
+                                    mirror=rc.proposal_mirror)
+        self.last_proposal = mix
+        return {"proposal": mix.sample,
+                "proposal_log_pdf": mix.log_pdf if rc.proposal_correction else None}
+
+    def observe(self, observation, *, frame: int | None = None) -> FrameRecord:
+        """:meth:`step` with recovery (``voxelmocap.recovery.Recovery``, ``config.recovery``).
+
+        A frame without a person is not tracked: its record repeats the last estimate with
+        ``observed = False``. The track starts again from the voxels when the person comes back
+        or the lost-track rule fires (the record's ``note`` says so). Observers are called for
+        every frame.
+        """
+        from .recovery import Recovery
+
+        if self._recovery is None:
+            self._recovery = Recovery(self)
+        if frame is None:
+            frame = self.filter.frame + 1
+        record = self._recovery.step(observation, frame=frame)
+        if not record.observed:
+            for observer in self.observers:
+                observer(record, self)
+        return record
+
+    def absent_record(self, observation, state, *, frame: int, seconds: float = 0.0
+                      ) -> FrameRecord:
+        """:func:`absent_record` with this tracker's model, layers and variances."""
+        pf = self.filter
+        return absent_record(self.model, observation, state, frame=frame,
+                             n_layers=1 if pf.strategy == "sir" else pf.n_layers,
+                             variances=self.variances, seconds=seconds)
+
+    @property
+    def recovery(self):
+        """The :class:`voxelmocap.recovery.Recovery` of :meth:`observe` (None before its use)."""
+        return self._recovery
+
     def track(self, observations: Iterable, frames: Iterable[int] | None = None,
               ground_truth=None) -> list[FrameRecord]:
         """Step through observations (initialising on the first when needed); the records.
@@ -517,12 +616,20 @@ class BodyTracker:
 
     # ------------------------------------------------------------------ checkpoints
     def get_state(self) -> dict:
-        """The filter's complete state (see ``AnnealedParticleFilter.get_state``)."""
-        return self.filter.get_state()
+        """The filter's complete state (``AnnealedParticleFilter.get_state``), and the recovery's."""
+        state = self.filter.get_state()
+        if self._recovery is not None:
+            state.update(self._recovery.get_state())
+        return state
 
     def set_state(self, state: dict) -> None:
         """Restore :meth:`get_state`; stepping on then equals an uninterrupted run."""
         self.filter.set_state(state)
+        if "recovery_good" in state:
+            from .recovery import Recovery
+
+            self._recovery = Recovery(self)
+            self._recovery.set_state(state)
 
 
 class MultiStart:

@@ -66,7 +66,12 @@ def read_poses(path):
 
         res = read_result(path)
         endpoints = np.asarray(res.endpoints, float)
-        return (np.asarray(res.frames, int), endpoints, np.ones(endpoints.shape[:2], bool),
+        # A frame flagged without a person has no estimate: all its endpoints disabled, as a
+        # body_pose XML of the same result says (the evaluation skips such frames).
+        enabled = np.ones(endpoints.shape[:2], bool)
+        if res.observed is not None:
+            enabled[~res.observed] = False
+        return (np.asarray(res.frames, int), endpoints, enabled,
                 bool(res.attrs.get("complete", False)))
     seq = read_body_pose_xml(path)
     if seq.endpoints.shape[-1] != 3:
@@ -165,8 +170,11 @@ def format_table(sequences: list[EvaluatedSequence], delta: float) -> str:
                      f"{_fmt(sc.humaneva_error_mm):>19s}")
     skipped = sum(s.scores.skipped for s in sequences)
     missing = sum(s.missing_gt for s in sequences)
+    unobserved = sum(s.scores.unobserved for s in sequences)
     lines.append(f"δ = {delta:g} mm; {skipped} frame(s) skipped (ground truth disabled), "
                  f"{missing} result frame(s) without ground truth")
+    if unobserved:
+        lines.append(f"{unobserved} frame(s) flagged without a person by the tracker: skipped")
     incomplete = [s for s in sequences if s.complete is False]
     for s in incomplete:
         lines.append(f"note: {s.result_path} is an unfinished run ({len(s.frames)} frames so far; "
@@ -188,7 +196,8 @@ def report_json(sequences: list[EvaluatedSequence], delta: float) -> dict:
         d = s.scores.to_dict()
         seqs.append({"subject": s.subject, "action": s.action, "trial": s.trial,
                      "result": str(s.result_path), "frames": d["frames"],
-                     "skipped_frames": d["skipped"], "mu_mm": _clean(d["mu_mm"]),
+                     "skipped_frames": d["skipped"], "unobserved_frames": d["unobserved"],
+                     "mu_mm": _clean(d["mu_mm"]),
                      "sigma_mm": _clean(d["sigma_mm"]), "mmtp_mm": _clean(d["mmtp_mm"]),
                      "mmta_pct": _clean(d["mmta_pct"]),
                      "humaneva_error_mm": _clean(d["humaneva_error_mm"])})

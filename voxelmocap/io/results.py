@@ -8,7 +8,8 @@
   ``part_scores`` (F, n_parts, 4) of the estimate (Out, DO, Empty, Surf), ``ess`` and ``betas``
   (F, L) per annealing layer, ``seconds`` (F,) per frame, ``log_likelihood`` (F,);
   ``landmark_spread`` (F, 15) mm and ``confidence`` (F, 15) in [0, 1] per landmark
-  (:mod:`voxelmocap.confidence`), ``observed`` (F,) uint8 (1: a person was seen; format 3 on —
+  (:mod:`voxelmocap.confidence`), ``observed`` (F,) uint8 (0: flagged without a person, the row
+  repeating the last estimate, ``voxelmocap.recovery``; format 3 on —
   a format-2 file reads as NaN spread and confidence and every frame observed);
 * ``state_names`` and ``part_names``: UTF-8 string datasets;
 * file attributes: ``format`` / ``format_version``, ``voxelmocap_version``, ``created`` (UTC, ISO
