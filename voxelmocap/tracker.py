@@ -301,6 +301,10 @@ class BodyTracker:
                 raise InputError("noise_std", f"expected {model.n_dims} finite values >= 0")
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self.filter = build_filter(model, self.config, rng, noise_std=self.noise_std)
+        from .cues import CueSet
+
+        #: the likelihood terms and their weights (``[cues]``; default the voxel likelihood)
+        self.cues = CueSet(model, self.config.cues, variances=self.variances)
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
 
@@ -371,19 +375,27 @@ class BodyTracker:
 
         When ``spent`` is given, its first element is increased by the seconds of every call.
         """
-        from .likelihood import log_likelihood
-
-        model, variances = self.model, self.variances
+        # The selected cues' weighted sum; reference appearances (ROI histograms, skin, limb
+        # colour) are learnt from the pose the track starts from (voxelmocap.cues.fusion).
+        score = self.cues.frame(observation, reference=self._cue_reference)
 
         def ll(states):
             if spent is None:
-                return log_likelihood(observation, model, states, variances=variances)
+                return score(states)
             t0 = time.perf_counter()
-            out = log_likelihood(observation, model, states, variances=variances)
+            out = score(states)
             spent[0] += time.perf_counter() - t0
             return out
 
         return ll
+
+    def _cue_reference(self):
+        """The pose the cues learn their reference appearance from: the current estimate, else
+        the mean of the first particles (None before the filter starts)."""
+        pf = self.filter
+        if pf.estimate is not None:
+            return pf.estimate
+        return None if pf.particles is None else self.model.clip(pf.particles.mean(axis=0)[None])[0]
 
     def step(self, observation, *, frame: int | None = None) -> FrameRecord:
         """Track one frame and describe the estimate (then call the observers).
