@@ -57,11 +57,18 @@ def observations(root: Path, clip: str, cameras, frames: int):
     from voxelmocap.measurement_runner import MeasurementRunner
     from voxelmocap.pipeline import body_model_for
 
+    from voxelmocap.grid import VoxelGrid
+
     subject, sequence = clip.split("/")
+    # every camera set is carved on the grid of the full rig (one camera alone sees no
+    # floor-to-2.2 m box, and the same grid keeps the voxel cue comparable across sets)
+    full = VoxelGrid.from_rig(Dataset(root).sequence(subject, sequence).rig, 20.0)
+    config = with_overrides(TrackConfig(), **{"measurement.grid_origin": list(full.origin),
+                                              "measurement.grid_shape": list(full.shape)})
     seq = Dataset(root).sequence(subject, sequence, cameras=cameras)
     gt = seq.ground_truth()
     model, _ = body_model_for(seq, gt)
-    runner = MeasurementRunner(seq, TrackConfig(), log=None)
+    runner = MeasurementRunner(seq, config, log=None)
     wanted = np.intersect1d(seq.frame_numbers, gt.frames)[:frames]
     numbers, obs = [], []
     for number, images in seq.frames(wanted):

@@ -126,6 +126,19 @@ def _evaluate_json_unwritable(data, tmp):
             str(tmp / "file" / "r.json")]
 
 
+def _voxel_cue_one_camera(data, tmp):
+    return _track(data, tmp, "--cameras", "C1", "--cues", "voxel,edges")
+
+
+def _unknown_cue(data, tmp):
+    return _track(data, tmp, "--cues", "voxel,edgse")
+
+
+def _cue_weight_zero(data, tmp):
+    (tmp / "cfg.toml").write_text("[cues]\nweights = {voxel = 1.0, roi = 0.0}\n")
+    return _track(data, tmp, "--config", str(tmp / "cfg.toml"))
+
+
 CASES: list[Case] = [
     Case("track --config: TOML file that is not UTF-8", _config_not_utf8("track"),
          ("{tmp}/cfg.toml", "not UTF-8")),
@@ -149,4 +162,8 @@ CASES: list[Case] = [
     Case("overlay --fps 0", _overlay_fps_zero, ("frame rate must be a positive number",)),
     Case("ground truth coordinate 1e308", _gt_huge_coordinate, ("Walking_1.xml", "1e308")),
     Case("evaluate --json below a file", _evaluate_json_unwritable, ("{tmp}/file",)),
+    Case("track --cameras C1 --cues voxel,edges (voxels from one camera)", _voxel_cue_one_camera,
+         ("cues", "at least two cameras", "C1")),
+    Case("track --cues names an unknown cue", _unknown_cue, ("--cues", "unknown cue 'edgse'")),
+    Case("a cue weight of 0 in the config", _cue_weight_zero, ("{tmp}/cfg.toml", "roi")),
 ]

@@ -101,11 +101,15 @@ class CueSet:
             return
         bad = [n for n in self.names if self.cues[n].needs_voxels]
         if bad:
-            which = f" ({', '.join(names)})" if names else ""
-            raise InputError("cues", f"the {' and '.join(bad)} cue{'s' if len(bad) > 1 else ''} "
-                                     f"need{'' if len(bad) > 1 else 's'} voxels carved from at "
-                                     f"least two cameras, this run has {n_cameras}{which}; use "
-                                     "image cues only, e.g. --cues edges,dt")
+            _refuse(bad, n_cameras, names)
+
+    @staticmethod
+    def check_weights_for_cameras(weights: dict, cameras) -> None:
+        """:meth:`check_cameras` for a selection of cue names and a list of camera names."""
+        need = [n for n in weights if n in CUES and CUES[n].needs_voxels]
+        cams = [c.strip() for c in cameras if c.strip()]
+        if len(cams) < 2 and need:
+            _refuse(need, len(cams), cams)
 
     def prepare(self, observation) -> CueFrame | None:
         """The frame's prepared images (cached for the last observation seen)."""
@@ -173,6 +177,14 @@ class CueSet:
             if state is not None:
                 self.learn(observation, state)
         return lambda states: self.log_likelihood(observation, states)
+
+
+def _refuse(cues, n_cameras, names):
+    which = f" ({', '.join(names)})" if names else ""
+    raise InputError("cues", f"the {' and '.join(cues)} cue{'s' if len(cues) > 1 else ''} "
+                             f"need{'' if len(cues) > 1 else 's'} voxels carved from at least "
+                             f"two cameras, this run has {n_cameras}{which}; use image cues "
+                             "only, e.g. --cues edges,roi")
 
 
 class _VoxelFrame:
