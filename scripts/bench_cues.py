@@ -53,11 +53,10 @@ SETTINGS: dict[str, dict[str, float]] = {
 
 def observations(root: Path, clip: str, cameras, frames: int):
     """(frame numbers, observations, ground truth, body model) of the first ``frames`` frames."""
+    from voxelmocap.grid import VoxelGrid
     from voxelmocap.io.humaneva import Dataset
     from voxelmocap.measurement_runner import MeasurementRunner
     from voxelmocap.pipeline import body_model_for
-
-    from voxelmocap.grid import VoxelGrid
 
     subject, sequence = clip.split("/")
     # every camera set is carved on the grid of the full rig (one camera alone sees no

@@ -117,7 +117,7 @@ def test_near_degenerate_view_along_axis(seed):
     """Camera close to the axis line, just outside the region with no contour generator."""
     rng = np.random.default_rng(100 + seed)
     geo, cone = _cone(rng, R=0.6 if seed % 2 else 1.0)
-    base, axis, u1, u2, H, W, L, R = cone
+    base, axis, u1, _u2, _H, _W, L, _R = cone
     end = base + L * axis if seed < 2 else base
     out = axis if seed < 2 else -axis
     dist = 1500.0
@@ -134,7 +134,7 @@ def test_near_degenerate_view_along_axis(seed):
 
 def test_on_axis_has_no_contour_and_degenerate_root():
     rng = np.random.default_rng(7)
-    geo, (base, axis, u1, u2, H, W, L, R) = _cone(rng, R=1.0)
+    geo, (base, axis, u1, u2, H, W, L, _R) = _cone(rng, R=1.0)
     assert not contour_angles(geo, base + (L + 1000) * axis)[1][0, 0]
     # K = a (eq 7's degenerate case): a cylinder seen from v with (c − v)·u1 = H → θ = π a root
     v = base - H * u1 + 1000 * u2 + 300 * axis

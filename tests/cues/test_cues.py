@@ -58,7 +58,7 @@ def _frame(model, state, cameras, *, grid=None):
 
     for cam in cameras:
         img = np.full((480, 640, 3), 90, np.uint8)
-        seg, valid, depth = project_contours(geo, cam)
+        seg, _valid, depth = project_contours(geo, cam)
         for part in np.argsort(-depth[0]):          # far to near
             quad = seg[0, part][[0, 0, 1, 1], [0, 1, 1, 0]]
             colour = (int(40 + 20 * part), int(200 - 15 * part), int(60 + 10 * part))
