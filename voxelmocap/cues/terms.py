@@ -64,16 +64,20 @@ class Views:
     Attributes
     ----------
     states : (P, 27) ndarray
+    kinematics : voxelmocap.body.kinematics.Kinematics
+        Cone frames and landmarks (mm).
     geometry : voxelmocap.body.PartGeometry
-    joints : (P, 15, 3) ndarray
-        Landmarks (mm).
     seg, valid, depth : list over cameras of the arrays of
         :func:`~voxelmocap.cues.contours.project_contours`.
     """
 
     def __init__(self, model, frame, states, *, with_contours: bool = True):
+        from ..body.model import PartGeometry
+
         self.states = model.check(states, legal=True)
-        self.geometry = model.geometry(self.states, legal=True)
+        # one forward-kinematics pass for the cones and the landmarks
+        self.kinematics = model.forward(self.states)
+        self.geometry = PartGeometry(self.kinematics, model.parts)
         self._model = model
         self.seg, self.valid, self.depth = [], [], []
         if with_contours and frame is not None:
@@ -91,7 +95,7 @@ class Views:
     def points(self) -> dict[str, np.ndarray]:
         """``(P, 3)`` model points (mm): head top and centre, hand tips and centres."""
         geo = self.geometry
-        kin = self._model.forward(self.states)
+        kin = self.kinematics
         hand = HAND_SHARE * self._model.dimensions.height
         out = {"head_top": kin.joints[:, _HEAD_TOP],
                "head": geo.base[:, _HEAD] + 0.5 * geo.shape[_HEAD, 2] * geo.axis[:, _HEAD]}
