@@ -84,7 +84,7 @@ class FrameRecord:
         Wall time of :meth:`BodyTracker.step` (the runner stores the whole frame's instead,
         measurement included).
     log_likelihood : float
-        Log-likelihood of ``state`` (from ``part_scores``).
+        Log-likelihood of ``state`` under the selected cues (voxel only: from ``part_scores``).
     likelihood_seconds : float
         The part of ``seconds`` spent in the filter's likelihood evaluations.
     """
@@ -430,7 +430,10 @@ class BodyTracker:
             ess=np.asarray(pf.layer_ess, dtype=float),
             betas=np.asarray(pf.layer_betas, dtype=float),
             seconds=time.perf_counter() - t0,
-            log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)),
+            # the selected cues' value (the voxel one from the part scores, no second call)
+            log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)
+                                 if self.cues.voxel_only
+                                 else self.cues.log_likelihood(observation, est)[0]),
             likelihood_seconds=spent[0],
         )
         for observer in self.observers:

@@ -211,5 +211,7 @@ def test_tracker_with_image_cues_follows_the_pose():
     tracker.initialise(obs, model.landmarks(x[None])[0], frame=1)
     record = tracker.step(obs, frame=1)
     assert tracker.cues.cues["roi"].learnt
+    assert record.log_likelihood == pytest.approx(
+        tracker.cues.log_likelihood(obs, record.state[None])[0])
     err = np.linalg.norm(record.landmarks - model.landmarks(x[None])[0], axis=1).mean()
     assert err < 60.0
