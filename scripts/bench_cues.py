@@ -45,6 +45,7 @@ SETTINGS: dict[str, dict[str, float]] = {
     "skin": {"skin": 1.0},
     "uniform": {"uniform": 1.0},
     "fused": {"voxel": 1.0, "roi": 1.0, "edges": 0.1},
+    "voxel_roi": {"voxel": 1.0, "roi": 1.0},
     "fused_all": {"voxel": 1.0, "edges": 0.1, "dt": 1.0, "roi": 1.0, "blob3d": 1.0,
                   "uniform": 0.2},
     "image": {"edges": 0.1, "roi": 1.0, "dt": 1.0},
