@@ -133,6 +133,41 @@ def costs(obs, gt, model, numbers, n_particles=200, repeats=3):
     return out
 
 
+def table(paths) -> str:
+    """Markdown tables (one per camera count) of JSON-lines results: μ / MMTA per clip (mean
+    over the seeds present), µs per particle (mean over clips)."""
+    rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines() if line]
+    # a (clip, cameras, setting, seed) run measured twice is the same run (deterministic): once
+    rows = list({(r["clip"], r["cameras"], r["setting"], r["seed"]): r for r in rows}.values())
+    out = []
+    clips = [c for c in CLIPS if any(r["clip"] == c for r in rows)]
+    for n_cam in sorted({r["cameras"] for r in rows}, reverse=True):
+        sub = [r for r in rows if r["cameras"] == n_cam]
+        out.append(f"\n{n_cam} camera{'s' if n_cam > 1 else ''}: μ (mm) / MMTA (%)\n")
+        out.append("| cues | " + " | ".join(c.split("/")[1] for c in clips)
+                   + " | mean μ | µs/particle |")
+        out.append("|---" * (len(clips) + 3) + "|")
+        for name in [s for s in SETTINGS if any(r["setting"] == s for r in sub)]:
+            cells, mus, costs = [], [], []
+            for clip in clips:
+                got = [r for r in sub if r["setting"] == name and r["clip"] == clip]
+                if not got:
+                    cells.append("")
+                    continue
+                mu = float(np.mean([r["mu_mm"] for r in got]))
+                mmta = float(np.mean([r["mmta_pct"] for r in got]))
+                mus.append(mu)
+                costs += [r["us_per_particle"] for r in got]
+                seeds = f" ({len(got)} seeds)" if len(got) > 1 else ""
+                cells.append(f"{mu:.1f} / {mmta:.0f}{seeds}")
+            weights = next(r["weights"] for r in sub if r["setting"] == name)
+            label = ", ".join(f"{k}" if v == 1 else f"{k}={v:g}" for k, v in weights.items())
+            label = name if label == name else f"{name}: {label}"
+            out.append(f"| {label} | " + " | ".join(cells)
+                       + f" | {np.mean(mus):.1f} | {np.mean(costs):.0f} |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=Path("/work/bench/data"))
@@ -142,15 +177,20 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--layers", type=int, default=4)
     ap.add_argument("--particles", type=int, default=150)
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seeds", default="0", help="comma-separated filter seeds (default 0)")
     ap.add_argument("--costs", action="store_true", help="time each cue alone on frame 1")
     ap.add_argument("--json", type=Path, help="append the rows (JSON lines) to this file")
+    ap.add_argument("--table", nargs="+", type=Path, help="print Markdown tables of JSON-lines "
+                                                          "results and exit")
     args = ap.parse_args(argv)
+    if args.table:
+        print(table(args.table))
+        return 0
     from voxelmocap.cues import CUES
 
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load "
           f"{open('/proc/loadavg').read().split()[0]}, {args.frames} frames, {args.layers} layers "
-          f"× {args.particles} particles, seed {args.seed}, start: frame 1 ground truth")
+          f"× {args.particles} particles, seeds {args.seeds}, start: frame 1 ground truth")
     print(f"{'clip':16s} {'cams':>4s} {'setting':10s} {'mu_mm':>7s} {'mmta%':>6s} "
           f"{'us/part':>8s}")
     for clip in args.clips.split(","):
@@ -162,24 +202,27 @@ def main(argv=None) -> int:
                 for name, us in costs(obs, gt, model, numbers).items():
                     print(f"{clip:16s} {n_cam:4d} cost {name:10s} {us:8.1f} us/particle")
                     sys.stdout.flush()
-            for name in args.settings.split(","):
-                weights = SETTINGS[name]
-                if n_cam < 2 and name == "fused":   # monocular: the image cues' fusion
-                    weights = SETTINGS["image"]
-                if n_cam < 2 and any(CUES[c].needs_voxels for c in weights):
-                    continue
-                mu, mmta, us, evals = track(numbers, obs, gt, model, weights, layers=args.layers,
-                                            particles=args.particles, seed=args.seed)
-                print(f"{clip:16s} {n_cam:4d} {name:10s} {mu:7.1f} {mmta:6.1f} {us:8.1f}")
-                sys.stdout.flush()
-                if args.json:
-                    with args.json.open("a") as f:
-                        f.write(json.dumps({"clip": clip, "cameras": n_cam, "setting": name,
-                                            "weights": weights, "mu_mm": mu, "mmta_pct": mmta,
-                                            "us_per_particle": us, "evaluations": evals,
-                                            "frames": args.frames, "layers": args.layers,
-                                            "particles": args.particles, "seed": args.seed})
-                                + "\n")
+            for seed in (int(v) for v in args.seeds.split(",")):
+                for name in args.settings.split(","):
+                    weights = SETTINGS[name]
+                    if n_cam < 2 and name == "fused":   # monocular: the image cues' fusion
+                        weights = SETTINGS["image"]
+                    if n_cam < 2 and any(CUES[c].needs_voxels for c in weights):
+                        continue
+                    mu, mmta, us, evals = track(numbers, obs, gt, model, weights,
+                                                layers=args.layers, particles=args.particles,
+                                                seed=seed)
+                    print(f"{clip:16s} {n_cam:4d} {name:10s} {mu:7.1f} {mmta:6.1f} {us:8.1f} "
+                          f"seed {seed}")
+                    sys.stdout.flush()
+                    if args.json:
+                        with args.json.open("a") as f:
+                            f.write(json.dumps({
+                                "clip": clip, "cameras": n_cam, "setting": name,
+                                "weights": weights, "mu_mm": mu, "mmta_pct": mmta,
+                                "us_per_particle": us, "evaluations": evals,
+                                "frames": args.frames, "layers": args.layers,
+                                "particles": args.particles, "seed": seed}) + "\n")
             del obs
     return 0
 
