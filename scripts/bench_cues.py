@@ -46,6 +46,8 @@ SETTINGS: dict[str, dict[str, float]] = {
     "uniform": {"uniform": 1.0},
     "fused": {"voxel": 1.0, "roi": 1.0, "edges": 0.1},
     "voxel_roi": {"voxel": 1.0, "roi": 1.0},
+    "voxel_roi4": {"voxel": 1.0, "roi": 4.0},
+    "fused4": {"voxel": 1.0, "roi": 4.0, "edges": 0.1},
     "fused_all": {"voxel": 1.0, "edges": 0.1, "dt": 1.0, "roi": 1.0, "blob3d": 1.0,
                   "uniform": 0.2},
     "image": {"edges": 0.1, "roi": 1.0, "dt": 1.0},
@@ -203,7 +205,7 @@ def main(argv=None) -> int:
                     print(f"{clip:16s} {n_cam:4d} cost {name:10s} {us:8.1f} us/particle")
                     sys.stdout.flush()
             for seed in (int(v) for v in args.seeds.split(",")):
-                for name in args.settings.split(","):
+                for name in [n for n in args.settings.split(",") if n]:
                     weights = SETTINGS[name]
                     if n_cam < 2 and name == "fused":   # monocular: the image cues' fusion
                         weights = SETTINGS["image"]

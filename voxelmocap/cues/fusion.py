@@ -168,6 +168,10 @@ class CueSet:
         if self.voxel_only:
             from ..likelihood import log_likelihood
 
+            cams = getattr(observation, "cameras", None)
+            if cams is not None:
+                self.check_cameras(len(cams), [c.name for c in cams])
+
             variances = self.cues["voxel"].variances
             kw = {} if variances is None else {"variances": variances}
             return lambda states: log_likelihood(observation, self.model, states, **kw)
