@@ -88,7 +88,7 @@ class CueSet:
     @property
     def voxel_only(self) -> bool:
         """The voxel likelihood alone with weight 1 (the tracker's original callable)."""
-        return self.names == ("voxel",) and self.weights[0] == 1.0
+        return self.names == ("voxel",) and bool(self.weights[0] == 1.0)
 
     def __repr__(self) -> str:
         return "CueSet(" + ", ".join(f"{n}={w:g}" for n, w in zip(self.names, self.weights,
