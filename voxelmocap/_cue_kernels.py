@@ -69,11 +69,36 @@ def in_quadrangle(px, py, a1x, a1y, a2x, a2y, b2x, b2y, b1x, b1y):
             or _in_triangle(px, py, a2x, a2y, b2x, b2y, b1x, b1y))
 
 
+@njit(cache=True)
+def _boxes(seg, p):
+    """``(n_parts, 4)`` bounding boxes (u min, u max, v min, v max) of particle p's quadrangles."""
+    n_parts = seg.shape[1]
+    box = np.empty((n_parts, 4))
+    for q in range(n_parts):
+        box[q, 0] = box[q, 1] = seg[p, q, 0, 0, 0]
+        box[q, 2] = box[q, 3] = seg[p, q, 0, 0, 1]
+        for s in range(2):
+            for e in range(2):
+                u = seg[p, q, s, e, 0]
+                v = seg[p, q, s, e, 1]
+                box[q, 0] = min(box[q, 0], u)
+                box[q, 1] = max(box[q, 1], u)
+                box[q, 2] = min(box[q, 2], v)
+                box[q, 3] = max(box[q, 3], v)
+    return box
+
+
 @njit(cache=True, inline="always")
-def _occluded(seg, valid, depth, p, part, ox, oy):
-    """A point of ``part`` hidden by a nearer part's quadrangle (paper 000 §4.3)."""
+def _occluded(seg, valid, depth, box, p, part, ox, oy):
+    """A point of ``part`` hidden by a nearer part's quadrangle (paper 000 §4.3).
+
+    A point outside a quadrangle's bounding box is outside it: the sign tests run only inside
+    the box (the same answer, several times faster).
+    """
     for q in range(seg.shape[1]):
         if q == part or not valid[p, q] or depth[p, q] >= depth[p, part]:
+            continue
+        if ox < box[q, 0] or ox > box[q, 1] or oy < box[q, 2] or oy > box[q, 3]:
             continue
         if in_quadrangle(ox, oy, seg[p, q, 0, 0, 0], seg[p, q, 0, 0, 1],
                          seg[p, q, 0, 1, 0], seg[p, q, 0, 1, 1],
@@ -119,6 +144,7 @@ def edge_ssd(seg, valid, depth, grey, spacing, search, g_min, c1, c2, c3, occlus
     n_p, n_parts = valid.shape
     height, width = grey.shape
     for p in prange(n_p):
+        box = _boxes(seg, p)
         ssd = 0.0
         count = 0.0
         for part in range(n_parts):
@@ -149,7 +175,7 @@ def edge_ssd(seg, valid, depth, grey, spacing, search, g_min, c1, c2, c3, occlus
                     if not (_in_picture(p1x, p1y, width, height)
                             and _in_picture(p2x, p2y, width, height)):
                         ssd += c1
-                    elif occlusion and _occluded(seg, valid, depth, p, part, ox, oy):
+                    elif occlusion and _occluded(seg, valid, depth, box, p, part, ox, oy):
                         ssd += c2
                     else:
                         j0 = -1
@@ -190,6 +216,7 @@ def dt_sum(seg, valid, depth, dt, spacing, occlusion, out_sum, out_count):
     n_p, n_parts = valid.shape
     height, width = dt.shape
     for p in prange(n_p):
+        box = _boxes(seg, p)
         total = 0.0
         count = 0.0
         for part in range(n_parts):
@@ -211,7 +238,7 @@ def dt_sum(seg, valid, depth, dt, spacing, occlusion, out_sum, out_count):
                     oy = y1 + m * dy
                     if not _in_picture(ox, oy, width, height):
                         continue
-                    if occlusion and _occluded(seg, valid, depth, p, part, ox, oy):
+                    if occlusion and _occluded(seg, valid, depth, box, p, part, ox, oy):
                         continue
                     total += dt[_rnd(oy), _rnd(ox)]
                     count += 1.0
@@ -244,6 +271,7 @@ def region_stats(seg, valid, depth, bins, colour, n_s, n_t, occlusion, out_hist,
     height, width = bins.shape
     n_c = colour.shape[2]
     for p in prange(n_p):
+        box = _boxes(seg, p)
         for part in range(n_parts):
             if not valid[p, part]:
                 continue
@@ -263,7 +291,7 @@ def region_stats(seg, valid, depth, bins, colour, n_s, n_t, occlusion, out_hist,
                     y = (1.0 - t) * ((1.0 - s) * a1y + s * b1y) + t * ((1.0 - s) * a2y + s * b2y)
                     if not _in_picture(x, y, width, height):
                         continue
-                    if occlusion and _occluded(seg, valid, depth, p, part, x, y):
+                    if occlusion and _occluded(seg, valid, depth, box, p, part, x, y):
                         continue
                     u = _rnd(x)
                     v = _rnd(y)
