@@ -182,15 +182,18 @@ def edge_ssd(seg, valid, depth, grey, spacing, search, g_min, c1, c2, c3, occlus
                         g0 = g_min
                         px = p1x
                         py = p1y
+                        # the listing reads I(p) and I(p + n) and then steps p += n: the second
+                        # read is the next step's first (the same float sum), so it is reused
+                        i1 = grey[_rnd(py), _rnd(px)]
                         for j in range(2 * search + 1):
-                            i1 = grey[_rnd(py), _rnd(px)]
-                            i2 = grey[_rnd(py + ny), _rnd(px + nx)]
+                            px += nx
+                            py += ny
+                            i2 = grey[_rnd(py), _rnd(px)]
                             g = abs(i1 - i2)
                             if g > g0:
                                 j0 = j
                                 g0 = g
-                            px += nx
-                            py += ny
+                            i1 = i2
                         if j0 == -1:
                             ssd += c3
                         else:
