@@ -7,7 +7,7 @@ the camera images the image cues read), then the product's tracker
 started from frame 1's ground truth, with the same filter (layers × particles, so the same number
 of likelihood evaluations) and seed. Printed per run: μ (mm), MMTA (%, δ = 100 mm), µs per
 particle of the likelihood (the filter's likelihood seconds / evaluations). ``--costs`` also times
-each cue alone on the same 200 particles of frame 1, side by side in one process.
+each cue alone on the same 300 particles of frame 1 (best of 7 interleaved repeats), side by side in one process.
 
 Examples::
 
@@ -102,7 +102,7 @@ def track(numbers, obs, gt, model, weights, *, layers, particles, seed):
     return scores.mu_mm, scores.mmta_pct, 1e6 * spent / max(evals, 1), evals
 
 
-def costs(obs, gt, model, numbers, n_particles=200, repeats=3):
+def costs(obs, gt, model, numbers, n_particles=300, repeats=7):
     """µs per particle of each cue alone on the same particles of the first frame."""
     from voxelmocap.body import fit_to_landmarks
     from voxelmocap.cues import CUES, CueSet
