@@ -79,14 +79,14 @@ def observations(root: Path, clip: str, cameras, frames: int):
     return numbers, obs, gt, model
 
 
-def track(numbers, obs, gt, model, weights, *, layers, particles, seed):
+def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="ground_truth"):
     """Track the observations with one cue selection; (μ, MMTA, µs per particle)."""
     from voxelmocap.evaluation import evaluate_sequence
     from voxelmocap.tracker import BodyTracker, ground_truth_landmarks
 
     config = with_overrides(TrackConfig(), **{"filter.layers": layers,
                                               "filter.particles": particles,
-                                              "init.method": "ground_truth"})
+                                              "init.method": init})
     config = dataclasses.replace(config, cues=CuesConfig(weights=dict(weights)))
     tracker = BodyTracker(model, config, seed=seed)
     endpoints, spent, evals = [], 0.0, 0
@@ -180,6 +180,10 @@ def main(argv=None) -> int:
     ap.add_argument("--layers", type=int, default=4)
     ap.add_argument("--particles", type=int, default=150)
     ap.add_argument("--seeds", default="0", help="comma-separated filter seeds (default 0)")
+    ap.add_argument("--init", default="ground_truth", choices=("ground_truth", "extremities"),
+                    help="start: frame 1's ground truth (default), or the voxels' extremities "
+                         "(a mixture of the likeliest starts; the ROI/skin/uniform references "
+                         "are then learnt from that start)")
     ap.add_argument("--costs", action="store_true", help="time each cue alone on frame 1")
     ap.add_argument("--json", type=Path, help="append the rows (JSON lines) to this file")
     ap.add_argument("--table", nargs="+", type=Path, help="print Markdown tables of JSON-lines "
@@ -213,7 +217,7 @@ def main(argv=None) -> int:
                         continue
                     mu, mmta, us, evals = track(numbers, obs, gt, model, weights,
                                                 layers=args.layers, particles=args.particles,
-                                                seed=seed)
+                                                seed=seed, init=args.init)
                     print(f"{clip:16s} {n_cam:4d} {name:10s} {mu:7.1f} {mmta:6.1f} {us:8.1f} "
                           f"seed {seed}")
                     sys.stdout.flush()
@@ -224,7 +228,8 @@ def main(argv=None) -> int:
                                 "weights": weights, "mu_mm": mu, "mmta_pct": mmta,
                                 "us_per_particle": us, "evaluations": evals,
                                 "frames": args.frames, "layers": args.layers,
-                                "particles": args.particles, "seed": seed}) + "\n")
+                                "particles": args.particles, "seed": seed,
+                                "init": args.init}) + "\n")
             del obs
     return 0
 
