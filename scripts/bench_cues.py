@@ -7,7 +7,8 @@ the camera images the image cues read), then the product's tracker
 started from frame 1's ground truth, with the same filter (layers × particles, so the same number
 of likelihood evaluations) and seed. Printed per run: μ (mm), MMTA (%, δ = 100 mm), µs per
 particle of the likelihood (the filter's likelihood seconds / evaluations). ``--costs`` also times
-each cue alone on the same 300 particles of frame 1 (best of 7 interleaved repeats), side by side in one process.
+each cue alone on the same 300 particles of frame 1 (best of 7 interleaved repeats), side by
+side in one process.
 
 Examples::
 
