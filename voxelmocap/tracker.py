@@ -365,6 +365,7 @@ class BodyTracker:
     def start(self, phrase: str, mean) -> str:
         """Draw the first particles around ``mean`` ((27,) or (K, 27) for a mixture)."""
         self.init_method = phrase
+        self._start_pose = np.atleast_2d(np.asarray(mean, dtype=float))[0]   # best start first
         self.filter.initialise(mean, self.config.init.spread * self.noise_std)
         return phrase
 
@@ -391,10 +392,12 @@ class BodyTracker:
 
     def _cue_reference(self):
         """The pose the cues learn their reference appearance from: the current estimate, else
-        the mean of the first particles (None before the filter starts)."""
+        the (best) starting pose, else the mean of the first particles (None before any)."""
         pf = self.filter
         if pf.estimate is not None:
             return pf.estimate
+        if getattr(self, "_start_pose", None) is not None:
+            return self.model.clip(self._start_pose[None])[0]
         return None if pf.particles is None else self.model.clip(pf.particles.mean(axis=0)[None])[0]
 
     def step(self, observation, *, frame: int | None = None) -> FrameRecord:
