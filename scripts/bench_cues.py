@@ -197,7 +197,7 @@ def main(argv=None) -> int:
 
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load "
           f"{open('/proc/loadavg').read().split()[0]}, {args.frames} frames, {args.layers} layers "
-          f"× {args.particles} particles, seeds {args.seeds}, start: frame 1 ground truth")
+          f"× {args.particles} particles, seeds {args.seeds}, start: {args.init}")
     print(f"{'clip':16s} {'cams':>4s} {'setting':10s} {'mu_mm':>7s} {'mmta%':>6s} "
           f"{'us/part':>8s}")
     for clip in args.clips.split(","):
