@@ -48,7 +48,7 @@ SETTINGS: dict[str, dict[str, float]] = {
     "fused": {"voxel": 1.0, "roi": 1.0, "edges": 0.1},
     "voxel_roi": {"voxel": 1.0, "roi": 1.0},
     "voxel_roi4": {"voxel": 1.0, "roi": 4.0},
-    "fused4": {"voxel": 1.0, "roi": 4.0, "edges": 0.1},
+    "fused4": {"voxel": 1.0, "roi": 4.0, "edges": 0.1},   # = voxelmocap.cues.FUSED
     "fused_all": {"voxel": 1.0, "edges": 0.1, "dt": 1.0, "roi": 1.0, "blob3d": 1.0,
                   "uniform": 0.2},
     "image": {"edges": 0.1, "roi": 1.0, "dt": 1.0},

@@ -180,6 +180,7 @@ def test_image_cue_without_images_is_refused():
 
 def test_parse_and_config_round_trip():
     assert parse_cues("voxel, edges=0.5") == {"voxel": 1.0, "edges": 0.5}
+    assert parse_cues("fused") == {"voxel": 1.0, "roi": 4.0, "edges": 0.1}
     for bad in ("voxel,nope", "edges=x", ""):
         with pytest.raises(InputError):
             parse_cues(bad)

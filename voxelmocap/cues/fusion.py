@@ -24,17 +24,27 @@ from ..errors import InputError
 from .frame import CueFrame
 from .terms import CUES, Views
 
-__all__ = ["CueSet", "parse_cues"]
+__all__ = ["FUSED", "CueSet", "parse_cues"]
+
+
+#: The measured fused selection (``docs/benchmarks.md``, "Image cues"): ``--cues fused``.
+FUSED: dict[str, float] = {"voxel": 1.0, "roi": 4.0, "edges": 0.1}
 
 
 def parse_cues(text: str, source: str = "--cues") -> dict[str, float]:
-    """``"voxel,edges=0.5"`` → ``{"voxel": 1.0, "edges": 0.5}`` (a bare name has weight 1)."""
+    """``"voxel,edges=0.5"`` → ``{"voxel": 1.0, "edges": 0.5}`` (a bare name has weight 1).
+
+    ``fused`` stands for :data:`FUSED` (voxel, roi = 4, edges = 0.1).
+    """
     weights: dict[str, float] = {}
     for item in (s.strip() for s in str(text).split(",")):
         if not item:
             continue
         name, _, value = item.partition("=")
         name = name.strip()
+        if name == "fused" and not value.strip():
+            weights.update(FUSED)
+            continue
         if name not in CUES:
             raise InputError(source, f"unknown cue {name!r} (known: {', '.join(CUES)})")
         try:
