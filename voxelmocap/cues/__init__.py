@@ -15,8 +15,8 @@ See ``docs/cues.md``.
 
 from .contours import contour_angles, contour_points, project_contours
 from .frame import CueFrame, image_bins
-from .fusion import CueSet, check_weights, parse_cues
+from .fusion import FUSED, CueSet, check_weights, parse_cues
 from .terms import CUES, Cue, Views, bhattacharyya
 
-__all__ = ["CUES", "Cue", "CueFrame", "CueSet", "Views", "bhattacharyya", "check_weights",
+__all__ = ["CUES", "FUSED", "Cue", "CueFrame", "CueSet", "Views", "bhattacharyya", "check_weights",
            "contour_angles", "contour_points", "image_bins", "parse_cues", "project_contours"]
