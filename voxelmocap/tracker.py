@@ -460,11 +460,16 @@ class BodyTracker:
 
     # ------------------------------------------------------------------ checkpoints
     def get_state(self) -> dict:
-        """The filter's complete state (see ``AnnealedParticleFilter.get_state``)."""
-        return self.filter.get_state()
+        """The filter's complete state (see ``AnnealedParticleFilter.get_state``), with the cues'
+        learnt reference appearances (``cue_*`` keys, only when image cues learnt some)."""
+        state = self.filter.get_state()
+        state.update(self.cues.get_state())
+        return state
 
     def set_state(self, state: dict) -> None:
         """Restore :meth:`get_state`; stepping on then equals an uninterrupted run."""
+        state = dict(state)
+        self.cues.set_state({k: state.pop(k) for k in list(state) if k.startswith("cue_")})
         self.filter.set_state(state)
 
 

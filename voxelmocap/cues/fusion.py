@@ -144,6 +144,23 @@ class CueSet:
             if cue.needs_reference:
                 cue.learn(frame, views)
 
+    def get_state(self) -> dict:
+        """The learnt reference appearances as flat ``cue_<name>_<key>`` arrays (checkpoints)."""
+        out: dict = {}
+        for name, cue in self.cues.items():
+            if cue.needs_reference and cue.learnt:
+                out.update({f"cue_{name}_{k}": np.asarray(v) for k, v in cue.get_state().items()})
+                out[f"cue_{name}_learnt"] = np.array(True)
+        return out
+
+    def set_state(self, state: dict) -> None:
+        """Restore :meth:`get_state` (keys of cues not selected are ignored)."""
+        for name, cue in self.cues.items():
+            if f"cue_{name}_learnt" in state:
+                prefix = f"cue_{name}_"
+                cue.set_state({k[len(prefix):]: v for k, v in state.items()
+                               if k.startswith(prefix) and k != f"cue_{name}_learnt"})
+
     @property
     def needs_reference(self) -> bool:
         """Some cue still waits for its reference appearance."""

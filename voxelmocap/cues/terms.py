@@ -127,6 +127,14 @@ class Cue:
         """Learn reference appearances from one frame and a single pose (``views.n == 1``)."""
         self.learnt = True
 
+    def get_state(self) -> dict:
+        """The learnt reference appearance as flat arrays (for checkpoints)."""
+        return {}
+
+    def set_state(self, state: dict) -> None:
+        """Restore :meth:`get_state`."""
+        self.learnt = True
+
     def __call__(self, frame, views: Views) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -215,6 +223,18 @@ class HistogramCue(_RegionCue):
             self.reference.append((hist[0], ok))
         self.learnt = True
 
+    def get_state(self):
+        out = {}
+        for c, (ref, ok) in enumerate(self.reference):
+            out[f"ref_{c}"], out[f"ok_{c}"] = ref, ok
+        return out
+
+    def set_state(self, state):
+        n = len([k for k in state if k.startswith("ref_")])
+        self.reference = [(np.asarray(state[f"ref_{c}"], float), np.asarray(state[f"ok_{c}"], bool))
+                          for c in range(n)]
+        self.learnt = True
+
     def __call__(self, frame, views):
         out = np.zeros(views.n)
         if not self.learnt:
@@ -253,6 +273,13 @@ class UniformCue(_RegionCue):
             ok = (moments[0, :, 0] >= MIN_SAMPLES) & (spread <= self.config.uniform_max_std)
             ok[_HEAD] = False   # a face is not a uniformly coloured limb
             self.applies.append(ok)
+        self.learnt = True
+
+    def get_state(self):
+        return {f"applies_{c}": ok for c, ok in enumerate(self.applies)}
+
+    def set_state(self, state):
+        self.applies = [np.asarray(state[f"applies_{c}"], bool) for c in range(len(state))]
         self.learnt = True
 
     def __call__(self, frame, views):
@@ -301,6 +328,16 @@ class SkinCue(Cue):
             every = np.bincount(bins.ravel(), minlength=n_bins).astype(float)
             share = head / np.maximum(every, 1.0)
             self.tables.append(share / share.max() if share.max() > 0 else None)
+        self.learnt = True
+
+    def get_state(self):
+        out = {"cameras": np.array(len(self.tables))}
+        out.update({f"table_{c}": t for c, t in enumerate(self.tables) if t is not None})
+        return out
+
+    def set_state(self, state):
+        self.tables = [None if f"table_{c}" not in state else np.asarray(state[f"table_{c}"], float)
+                       for c in range(int(state["cameras"]))]
         self.learnt = True
 
     def __call__(self, frame, views):
