@@ -319,6 +319,18 @@ def _not_a_layout(data, tmp):
 def _import_humaneva(data, tmp):
     return ["import", str(data), "--out", str(tmp / "he"), "--no-progress"]
 
+def _voxel_cue_one_camera(data, tmp):
+    return _track(data, tmp, "--cameras", "C1", "--cues", "voxel,edges")
+
+
+def _unknown_cue(data, tmp):
+    return _track(data, tmp, "--cues", "voxel,edgse")
+
+
+def _cue_weight_zero(data, tmp):
+    (tmp / "cfg.toml").write_text("[cues]\nweights = {voxel = 1.0, roi = 0.0}\n")
+    return _track(data, tmp, "--config", str(tmp / "cfg.toml"))
+
 
 CASES: list[Case] = [
     Case("track --config: TOML file that is not UTF-8", _config_not_utf8("track"),
@@ -400,4 +412,8 @@ CASES: list[Case] = [
          ("{tmp}/empty", "not a Pose2Sim")),
     Case("import of a HumanEva-layout data set", _import_humaneva,
          ("{data}", "HumanEva-layout data set already")),
+    Case("track --cameras C1 --cues voxel,edges (voxels from one camera)", _voxel_cue_one_camera,
+         ("cues", "at least two cameras", "C1")),
+    Case("track --cues names an unknown cue", _unknown_cue, ("--cues", "unknown cue 'edgse'")),
+    Case("a cue weight of 0 in the config", _cue_weight_zero, ("{tmp}/cfg.toml", "roi")),
 ]

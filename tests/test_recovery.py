@@ -243,10 +243,8 @@ def test_track_strategy_iapf_runs_from_the_command_line(walk_dataset, tmp_path, 
     assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
                  "--frames", "1:3", "--layers", "2", "--particles", "30", "--strategy", "iapf",
                  "--no-progress", "--out", str(tmp_path / "run")]) == 0
-    from voxelmocap.config import TrackConfig
-
-    # one detector proposal per filter step: each frame, and the settling steps on the first
-    assert len(calls) == 3 + TrackConfig().init.settle_steps
+    # one detector proposal per frame (a ground-truth start gets no settling steps)
+    assert len(calls) == 3
     result = read_result(tmp_path / "run" / "S1" / "Walking_1.h5")
     assert len(result) == 3 and result.observed.all()
     assert "strategy = \"iapf\"" in result.attrs["config"]

@@ -28,6 +28,7 @@ from .io.toml import dumps_toml, parse_toml, read_toml
 
 __all__ = [
     "EXPORT_FORMATS",
+    "CuesConfig",
     "ExportConfig",
     "FilterConfig",
     "InitConfig",
@@ -310,6 +311,48 @@ class RecoveryConfig:
 
 
 @dataclass(frozen=True)
+class CuesConfig:
+    """Likelihood cues and their fusion (``voxelmocap.cues``, ``docs/cues.md``).
+
+    The global log-likelihood is ``Σ weight · log p`` over the cues named in ``weights``.
+    """
+
+    #: cue name → weight: ``voxel`` (paper 002), ``edges`` (000 §4.1.1), ``dt``, ``roi``,
+    #: ``blob3d``, ``skin``, ``uniform`` (004 §III-B). The default is the voxel likelihood alone
+    weights: dict[str, float] = field(default_factory=lambda: {"voxel": 1.0})
+    #: Azad's Δ (pixels between observed contour points; also the ``dt`` cue's), δ (search
+    #: half-length, pixels), G_MIN (smallest grey step) and σ² of eq 13
+    edge_spacing: float = 5.0
+    edge_search: int = 15
+    edge_min_gradient: float = 12.0
+    edge_variance: float = 0.0025
+    #: costs of a point whose search leaves the picture (C1), of an occluded point (C2, default
+    #: δ²) and of a point with no edge (C3, default (δ + 5)²)
+    edge_c1: float = 0.0
+    edge_c2: float | None = None
+    edge_c3: float | None = None
+    #: the fast occlusion test (paper 000 §4.3) for ``edges``, ``dt``, ``roi``, ``uniform``
+    occlusion: bool = True
+    #: Canny hysteresis thresholds (grey levels) of the ``dt`` cue's edge image
+    canny: tuple[float, float] = (50.0, 150.0)
+    #: Fontmarty's Table II: σ_e (pixels), σ_ROI, σ_3D (0.15 m, in mm), σ_s, σ_m (grey levels)
+    sigma_dt: float = 10.0
+    sigma_roi: float = 0.3
+    sigma_3d_mm: float = 150.0
+    sigma_skin: float = 0.02
+    sigma_uniform: float = 10.0
+    #: levels per colour channel of the ROI histograms (n³ bins; n² grey levels for grey cameras)
+    histogram_bins: int = 4
+    #: levels per channel of the skin colour model
+    skin_bins: int = 8
+    #: samples across and along every part's image quadrangle (``roi``, ``uniform``)
+    roi_samples: tuple[int, int] = (5, 8)
+    #: ``uniform`` applies to the parts whose colour standard deviation in the reference frame is
+    #: at most this (grey levels)
+    uniform_max_std: float = 20.0
+
+
+@dataclass(frozen=True)
 class TrackConfig:
     """Everything a tracking run depends on, apart from the data and the seed."""
 
@@ -319,6 +362,7 @@ class TrackConfig:
     init: InitConfig = field(default_factory=InitConfig)
     export: ExportConfig = field(default_factory=ExportConfig)
     recovery: RecoveryConfig = field(default_factory=RecoveryConfig)
+    cues: CuesConfig = field(default_factory=CuesConfig)
 
 
 # ---------------------------------------------------------------------- conversion and checks
@@ -450,6 +494,9 @@ def _check_ranges(obj, prefix: str, source) -> None:
     if isinstance(obj, ExportConfig):
         _check_export(obj, prefix, source)
 
+    if isinstance(obj, CuesConfig):
+        _check_cues(obj, prefix, source)
+
 
 def _check_export(obj: ExportConfig, prefix: str, source) -> None:
     unknown = [f for f in obj.formats if f not in EXPORT_FORMATS]
@@ -510,6 +557,28 @@ def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
             bad(name, ">= 0")
     if obj.mog2_history < 1:
         bad("mog2_history", ">= 1")
+
+
+def _check_cues(obj: CuesConfig, prefix: str, source) -> None:
+    from .cues import check_weights
+
+    check_weights(obj.weights, source, f"{prefix}.weights")
+    for name in ("edge_spacing", "edge_search", "edge_variance", "sigma_dt", "sigma_roi",
+                 "sigma_3d_mm", "sigma_skin", "sigma_uniform", "histogram_bins", "skin_bins",
+                 "uniform_max_std"):
+        if not getattr(obj, name) > 0:
+            raise InputError(source, f"key '{prefix}.{name}' must be > 0")
+    for name in ("edge_min_gradient", "edge_c1", "edge_c2", "edge_c3"):
+        value = getattr(obj, name)
+        if value is not None and value < 0:
+            raise InputError(source, f"key '{prefix}.{name}' must be >= 0")
+    if not 0 <= obj.canny[0] <= obj.canny[1]:
+        raise InputError(source, f"key '{prefix}.canny' must be [low, high] with 0 <= low <= high")
+    if min(obj.roi_samples) < 1:
+        raise InputError(source, f"key '{prefix}.roi_samples' must be two integers >= 1")
+    if obj.histogram_bins > 16 or obj.skin_bins > 32:
+        raise InputError(source, f"keys '{prefix}.histogram_bins' / '{prefix}.skin_bins' must be "
+                                 "at most 16 / 32 levels per channel")
 
 
 #: ``AnnealedParticleFilter`` argument → FilterConfig key, for messages.

@@ -202,4 +202,5 @@ class MeasurementStage:
         t2 = time.perf_counter()
         return VoxelObservation(occ, self.grid, sigma=self.sigma, masks=masks,
                                 timings={"subtract": t1 - t0, "carve": t2 - t1}, empty=empty,
-                                excluded=excluded)
+                                excluded=excluded, images=[images[n] for n in self.names],
+                                cameras=self.cameras)

@@ -59,6 +59,10 @@ class VoxelObservation:
         Every silhouette was empty (no person in view).
     excluded : dict of str to str, optional
         Cameras left out of the carving of this frame, with the reason (e.g. ``"all black"``).
+    images : list of (H_c, W_c) or (H_c, W_c, 3) uint8 ndarray, optional
+        The camera images of the frame, in rig order (the image cues of ``voxelmocap.cues``).
+    cameras : list of Camera, optional
+        The cameras of ``images`` (and of ``masks``), in rig order.
 
     Attributes
     ----------
@@ -73,13 +77,13 @@ class VoxelObservation:
         use).
     prefix : (nx, ny, nz + 1, 3) int32 ndarray
         Prefix sums along z of ``scene``, ``occupancy`` and ``smoothed_q`` (computed on first use).
-    masks, timings, empty, excluded
+    masks, timings, empty, excluded, images, cameras
         As given (``timings`` with the surface timings added; ``excluded`` a dict).
     """
 
     def __init__(self, occupancy, grid: VoxelGrid, *, sigma: float = 1.0, scene=None,
                  masks=None, timings: dict | None = None, empty: bool = False,
-                 excluded: dict | None = None):
+                 excluded: dict | None = None, images=None, cameras=None):
         if not isinstance(grid, VoxelGrid):
             raise InputError("grid", f"expected a VoxelGrid, got {type(grid).__name__}")
         occ = np.asarray(occupancy)
@@ -113,6 +117,8 @@ class VoxelObservation:
         self.timings = dict(timings or {})
         self.empty = bool(empty)
         self.excluded = dict(excluded or {})
+        self.images = None if images is None else list(images)
+        self.cameras = None if cameras is None else list(cameras)
         t0 = time.perf_counter()
         self.surface = surface_voxels(self.occupancy)
         t1 = time.perf_counter()

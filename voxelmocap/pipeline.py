@@ -355,13 +355,13 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     _write_exports(xml_path, bvh_path, seq, gt, frames_done, np.array(done["endpoints"]), fps,
                    np.array(done["observed"], bool))
     for frame, note in done["notes"]:
-        log(f"frame {frame}: {note}")
+        say(f"frame {frame}: {note}")
     if done["absent"]:
-        log(f"{len(done['absent'])} frame(s) flagged without a person (not tracked, skipped by "
+        say(f"{len(done['absent'])} frame(s) flagged without a person (not tracked, skipped by "
             f"'voxelmocap evaluate'): {_frame_list(done['absent'])}")
     return TrackOutcome(result_path, xml_path, bvh_path, frames_done, init_method,
-                        resumed_from, float(np.mean(done["seconds"])), _landmark_exports(result_path, config),
-                        done["absent"], done["notes"])
+                        resumed_from, float(np.mean(done["seconds"])),
+                        _landmark_exports(result_path, config), done["absent"], done["notes"])
 
 
 def _starts_from_ground_truth(config, gt, frame) -> bool:

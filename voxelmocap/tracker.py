@@ -57,6 +57,9 @@ __all__ = [
     "noise_profile",
 ]
 
+#: How :meth:`BodyTracker.initial_state` names a start from the ground truth.
+GROUND_TRUTH_START = "the ground truth"
+
 #: Trunk angles that get the root rotation's noise, not the limbs' (see :func:`noise_profile`).
 TRUNK_ANGLES = ("waist_flex", "waist_side", "waist_twist", "neck_flex", "neck_side")
 
@@ -85,7 +88,7 @@ class FrameRecord:
         Wall time of :meth:`BodyTracker.step` (the runner stores the whole frame's instead,
         measurement included).
     log_likelihood : float
-        Log-likelihood of ``state`` (from ``part_scores``).
+        Log-likelihood of ``state`` under the selected cues (voxel only: from ``part_scores``).
     likelihood_seconds : float
         The part of ``seconds`` spent in the filter's likelihood evaluations.
     landmark_spread : (15,) ndarray
@@ -205,7 +208,7 @@ def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
 
     fc = config.filter
     noise = noise_profile(model, config) if noise_std is None else noise_std
-    if fc.search == "hierarchical" and fc.strategy == "apf":
+    if searches_hierarchically(config):
         from .hierarchy import body_partitions
         from .tracking.partitioned import PartitionedParticleFilter
 
@@ -259,12 +262,21 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36)
     return candidates[int(np.argmax(scores))]
 
 
+def searches_hierarchically(config: TrackConfig) -> bool:
+    """Whether the filter searches partition by partition: ``filter.search = "hierarchical"``
+    with the ``apf`` strategy and the voxel likelihood alone (a limb is scored by re-scoring
+    its two cones; image cues and the other strategies search all dimensions at once)."""
+    fc = config.filter
+    return (fc.search == "hierarchical" and fc.strategy == "apf"
+            and dict(config.cues.weights) == {"voxel": 1.0})
+
+
 def annealing_layers(config: TrackConfig) -> int:
     """Layers per frame of the filter a config builds (one ESS and β each in a record)."""
     fc = config.filter
     if fc.strategy == "sir":
         return 1
-    if fc.search == "hierarchical" and fc.strategy == "apf":
+    if searches_hierarchically(config):
         from .hierarchy import body_partitions
 
         return sum(p.layers for p in body_partitions(fc))
@@ -361,6 +373,10 @@ class BodyTracker:
                 raise InputError("noise_std", f"expected {model.n_dims} finite values >= 0")
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self.filter = build_filter(model, self.config, rng, noise_std=self.noise_std)
+        from .cues import CueSet
+
+        #: the likelihood terms and their weights (``[cues]``; default the voxel likelihood)
+        self.cues = CueSet(model, self.config.cues, variances=self.variances)
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
         self._settle = 0  # settling steps still due on the next frame (see settle)
@@ -400,7 +416,7 @@ class BodyTracker:
         if method == "ground_truth" and ground_truth is None:
             raise InputError("init.method", f"ground truth of {which} is not available")
         if method == "ground_truth" or (method == "auto" and ground_truth is not None):
-            return (f"the ground truth of {which}",
+            return (f"{GROUND_TRUTH_START} of {which}",
                     fit_to_landmarks(self.model, np.asarray(ground_truth, dtype=float)))
         if method == "voxels":
             return (f"the voxels of {which} (centroid + yaw search)",
@@ -425,10 +441,16 @@ class BodyTracker:
         return self.start(phrase, mean)
 
     def start(self, phrase: str, mean) -> str:
-        """Draw the first particles around ``mean`` ((27,) or (K, 27) for a mixture)."""
+        """Draw the first particles around ``mean`` ((27,) or (K, 27) for a mixture).
+
+        A start from the ground truth is exact: it gets no settling steps (``init.settle_steps``
+        apply to starts found from the voxels).
+        """
         self.init_method = phrase
+        self._start_pose = np.atleast_2d(np.asarray(mean, dtype=float))[0]   # best start first
         self.filter.initialise(mean, self.config.init.spread * self.noise_std)
-        self._settle = self.config.init.settle_steps
+        self._settle = (0 if phrase.startswith(GROUND_TRUTH_START)
+                        else self.config.init.settle_steps)
         return phrase
 
     def _run_filter(self, observation, spent):
@@ -459,14 +481,15 @@ class BodyTracker:
         When ``spent`` is given, its first element is increased by the seconds of every call.
         """
         from .hierarchy import pitch_prior
-        from .likelihood import log_likelihood
 
-        model, variances = self.model, self.variances
+        # The selected cues' weighted sum; reference appearances (ROI histograms, skin, limb
+        # colour) are learnt from the pose the track starts from (voxelmocap.cues.fusion).
+        score = self.cues.frame(observation, reference=self._cue_reference)
         prior = self.config.likelihood.root_pitch_prior_deg
 
         def ll(states):
             t0 = time.perf_counter()
-            out = log_likelihood(observation, model, states, variances=variances)
+            out = score(states)
             if prior is not None:
                 out = out + pitch_prior(states, prior)
             if spent is not None:
@@ -497,6 +520,16 @@ class BodyTracker:
             return ll
 
         return factory
+
+    def _cue_reference(self):
+        """The pose the cues learn their reference appearance from: the current estimate, else
+        the (best) starting pose, else the mean of the first particles (None before any)."""
+        pf = self.filter
+        if pf.estimate is not None:
+            return pf.estimate
+        if getattr(self, "_start_pose", None) is not None:
+            return self.model.clip(self._start_pose[None])[0]
+        return None if pf.particles is None else self.model.clip(pf.particles.mean(axis=0)[None])[0]
 
     def step(self, observation, *, frame: int | None = None) -> FrameRecord:
         """Track one frame and describe the estimate (then call the observers).
@@ -535,7 +568,10 @@ class BodyTracker:
             ess=np.asarray(pf.layer_ess, dtype=float),
             betas=np.asarray(pf.layer_betas, dtype=float),
             seconds=time.perf_counter() - t0,
-            log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)),
+            # the selected cues' value (the voxel one from the part scores, no second call)
+            log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)
+                                 if self.cues.voxel_only
+                                 else self.cues.log_likelihood(observation, est)[0]),
             likelihood_seconds=spent[0],
             landmark_spread=spread,
             confidence=landmark_confidence(spread, scores, self.model.part_names),
@@ -616,14 +652,19 @@ class BodyTracker:
 
     # ------------------------------------------------------------------ checkpoints
     def get_state(self) -> dict:
-        """The filter's complete state (``AnnealedParticleFilter.get_state``), and the recovery's."""
+        """The filter's complete state (``AnnealedParticleFilter.get_state``), the recovery's, and
+        the cues' learnt reference appearances (``cue_*`` keys, only when image cues learnt
+        some)."""
         state = self.filter.get_state()
         if self._recovery is not None:
             state.update(self._recovery.get_state())
+        state.update(self.cues.get_state())
         return state
 
     def set_state(self, state: dict) -> None:
         """Restore :meth:`get_state`; stepping on then equals an uninterrupted run."""
+        state = dict(state)
+        self.cues.set_state({k: state.pop(k) for k in list(state) if k.startswith("cue_")})
         self.filter.set_state(state)
         if "recovery_good" in state:
             from .recovery import Recovery

@@ -53,6 +53,10 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--strategy", choices=("apf", "sir", "iapf"), help="filter strategy")
     parser.add_argument("--voxel-size", type=float, help="voxel edge in mm (default 20)")
     parser.add_argument("--cameras", help="comma-separated camera names (default: all)")
+    parser.add_argument("--cues", help="likelihood cues and weights, e.g. voxel,roi=4,edges=0.1 "
+                                       "(voxel, edges, dt, roi, blob3d, skin, uniform; 'fused' = "
+                                       "voxel,roi=4,edges=0.1; default voxel; see docs/cues.md). "
+                                       "voxel and blob3d need two cameras or more")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--resume", action="store_true", help="continue an interrupted run")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing result")
@@ -77,6 +81,13 @@ def resolve_config(args):
         from ..io.exports import parse_formats
 
         formats = list(parse_formats(formats, "--export"))
+    if getattr(args, "cues", None):
+        import dataclasses
+
+        from ..cues import parse_cues
+
+        config = dataclasses.replace(config, cues=dataclasses.replace(
+            config.cues, weights=parse_cues(args.cues)))
     return with_overrides(config, **{
         "export.formats": formats,
         "export.cutoff_hz": getattr(args, "smooth", None),
@@ -105,6 +116,13 @@ def run(args: argparse.Namespace) -> int:
 
     config = resolve_config(args)
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
+    if cameras is not None:
+        from ..cues import CueSet
+
+        # refused here, before the background models are learnt, when the cameras are named
+        CueSet.check_weights_for_cameras(config.cues.weights, cameras)
+        if len(cameras) == 1 and config.measurement.grid_origin is None:
+            config = _grid_of_full_rig(args, config)
     recorder = None
     if args.rerun:
         from ..viz.rerun_recording import RerunRecorder
@@ -152,3 +170,19 @@ def _run_all(args: argparse.Namespace) -> int:
     for key, reason in summary.failed:
         logger.info(f"  failed:  {key}: {reason}")
     return 1 if summary.failed else 0
+
+
+def _grid_of_full_rig(args, config):
+    """Monocular mode: carve on the grid of the sequence's whole rig (one camera alone sees no
+    floor-to-head box, so it cannot derive one; the voxels only serve the per-part scores)."""
+    from ..config import with_overrides
+    from ..grid import VoxelGrid
+    from ..io.sequence import open_sequence
+
+    rig = open_sequence(args.dataset, args.subject, args.sequence, trial=args.trial,
+                        calibration=args.calibration).rig
+    grid = VoxelGrid.from_rig(rig, config.measurement.voxel_size, bytes_per_voxel=8.0)
+    logger.info(f"one camera: carving on the grid of all {len(rig)} cameras ({grid.shape[0]}x"
+                f"{grid.shape[1]}x{grid.shape[2]} voxels)")
+    return with_overrides(config, **{"measurement.grid_origin": list(grid.origin),
+                                     "measurement.grid_shape": list(grid.shape)})

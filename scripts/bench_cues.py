@@ -1,0 +1,239 @@
+"""Cue comparison: voxel-only, each image cue alone and fused, on the rendered benchmark clips.
+
+For every clip and camera set (7 cameras, a 2-camera and a 1-camera subset) the frames are
+measured once (:class:`voxelmocap.measurement_runner.MeasurementRunner`: silhouettes, voxels, and
+the camera images the image cues read), then the product's tracker
+(:class:`voxelmocap.tracker.BodyTracker`) runs once per cue setting on the same observations,
+started from frame 1's ground truth, with the same filter (layers × particles, so the same number
+of likelihood evaluations) and seed. Printed per run: μ (mm), MMTA (%, δ = 100 mm), µs per
+particle of the likelihood (the filter's likelihood seconds / evaluations). ``--costs`` also times
+each cue alone on the same 300 particles of frame 1 (best of 7 interleaved repeats), side by
+side in one process.
+
+Examples::
+
+    python scripts/bench_cues.py --clips S3/Box_1 --cameras 7 --frames 20
+    python scripts/bench_cues.py --frames 30 --layers 4 --particles 150 --json out.json
+    python scripts/bench_cues.py --costs --clips S1/Walking_1
+
+Settings are named cue selections (``SETTINGS``); a setting needing voxels is skipped below two
+cameras (the product refuses it), and ``fused`` then means the image cues' fusion (``image``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from voxelmocap.config import CuesConfig, TrackConfig, with_overrides
+
+CLIPS = ["S1/Walking_1", "S2/Jog_1", "S3/Box_1", "S4/Gestures_1", "S5/Combo_1"]
+CAMERA_SETS = {"7": None, "2": ["C1", "C2"], "1": ["C1"]}
+
+#: name → cue weights
+SETTINGS: dict[str, dict[str, float]] = {
+    "voxel": {"voxel": 1.0},
+    "edges": {"edges": 1.0},
+    "dt": {"dt": 1.0},
+    "roi": {"roi": 1.0},
+    "blob3d": {"blob3d": 1.0},
+    "skin": {"skin": 1.0},
+    "uniform": {"uniform": 1.0},
+    "fused": {"voxel": 1.0, "roi": 1.0, "edges": 0.1},
+    "voxel_roi": {"voxel": 1.0, "roi": 1.0},
+    "voxel_roi4": {"voxel": 1.0, "roi": 4.0},
+    "fused4": {"voxel": 1.0, "roi": 4.0, "edges": 0.1},   # = voxelmocap.cues.FUSED
+    "fused_all": {"voxel": 1.0, "edges": 0.1, "dt": 1.0, "roi": 1.0, "blob3d": 1.0,
+                  "uniform": 0.2},
+    "image": {"edges": 0.1, "roi": 1.0, "dt": 1.0},
+}
+
+
+def observations(root: Path, clip: str, cameras, frames: int):
+    """(frame numbers, observations, ground truth, body model) of the first ``frames`` frames."""
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.io.humaneva import Dataset
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.pipeline import body_model_for
+
+    subject, sequence = clip.split("/")
+    # every camera set is carved on the grid of the full rig (one camera alone sees no
+    # floor-to-2.2 m box, and the same grid keeps the voxel cue comparable across sets)
+    full = VoxelGrid.from_rig(Dataset(root).sequence(subject, sequence).rig, 20.0)
+    config = with_overrides(TrackConfig(), **{"measurement.grid_origin": list(full.origin),
+                                              "measurement.grid_shape": list(full.shape)})
+    seq = Dataset(root).sequence(subject, sequence, cameras=cameras)
+    gt = seq.ground_truth()
+    model, _ = body_model_for(seq, gt)
+    runner = MeasurementRunner(seq, config, log=None)
+    wanted = np.intersect1d(seq.frame_numbers, gt.frames)[:frames]
+    numbers, obs = [], []
+    for number, images in seq.frames(wanted):
+        numbers.append(int(number))
+        obs.append(runner.measure(images, frame=number))
+    return numbers, obs, gt, model
+
+
+def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="ground_truth"):
+    """Track the observations with one cue selection; (μ, MMTA, µs per particle)."""
+    from voxelmocap.evaluation import evaluate_sequence
+    from voxelmocap.tracker import BodyTracker, ground_truth_landmarks
+
+    config = with_overrides(TrackConfig(), **{"filter.layers": layers,
+                                              "filter.particles": particles,
+                                              "init.method": init})
+    config = dataclasses.replace(config, cues=CuesConfig(weights=dict(weights)))
+    tracker = BodyTracker(model, config, seed=seed)
+    endpoints, spent, evals = [], 0.0, 0
+    for number, o in zip(numbers, obs, strict=True):
+        if not tracker.initialised:
+            tracker.initialise(o, ground_truth_landmarks(gt, number), frame=number)
+        record = tracker.step(o, frame=number)
+        endpoints.append(record.endpoints)
+        spent += record.likelihood_seconds
+        evals += tracker.filter.step_evaluations
+    rows = gt.index_of(numbers)
+    scores, _ = evaluate_sequence(np.array(endpoints), gt.endpoints[rows], gt.enabled[rows])
+    return scores.mu_mm, scores.mmta_pct, 1e6 * spent / max(evals, 1), evals
+
+
+def costs(obs, gt, model, numbers, n_particles=300, repeats=7):
+    """µs per particle of each cue alone on the same particles of the first frame."""
+    from voxelmocap.body import fit_to_landmarks
+    from voxelmocap.cues import CUES, CueSet
+    from voxelmocap.cues.terms import Views
+    from voxelmocap.tracker import ground_truth_landmarks
+
+    x0 = fit_to_landmarks(model, ground_truth_landmarks(gt, numbers[0]))
+    rng = np.random.default_rng(0)
+    noise = np.r_[np.full(3, 30.0), np.full(24, 0.1)]
+    states = model.clip(x0 + rng.normal(size=(n_particles, 27)) * noise)
+    n_cam = len(obs[0].cameras)
+    names = [n for n in CUES if n_cam >= 2 or not CUES[n].needs_voxels]
+    cues = CueSet(model, CuesConfig(weights={n: 1.0 for n in names}))
+    cues.learn(obs[0], x0)
+    frame = cues.prepare(obs[0])
+    out = {}
+    t_views = []
+    timings = {n: [] for n in names}
+    for _ in range(repeats):      # interleaved, so that load changes hit every cue alike
+        t0 = time.perf_counter()
+        views = Views(model, frame, states)
+        t_views.append(time.perf_counter() - t0)
+        for n in names:
+            t0 = time.perf_counter()
+            cues.cues[n](frame, views)
+            timings[n].append(time.perf_counter() - t0)
+    out["(contours)"] = 1e6 * min(t_views) / n_particles
+    for n in names:
+        out[n] = 1e6 * min(timings[n]) / n_particles
+    return out
+
+
+def table(paths) -> str:
+    """Markdown tables (one per camera count) of JSON-lines results: μ / MMTA per clip (mean
+    over the seeds present), µs per particle (mean over clips)."""
+    rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines() if line]
+    # a (clip, cameras, setting, seed) run measured twice is the same run (deterministic): once
+    rows = list({(r["clip"], r["cameras"], r["setting"], r["seed"]): r for r in rows}.values())
+    out = []
+    clips = [c for c in CLIPS if any(r["clip"] == c for r in rows)]
+    for n_cam in sorted({r["cameras"] for r in rows}, reverse=True):
+        sub = [r for r in rows if r["cameras"] == n_cam]
+        out.append(f"\n{n_cam} camera{'s' if n_cam > 1 else ''}: μ (mm) / MMTA (%)\n")
+        out.append("| cues | " + " | ".join(c.split("/")[1] for c in clips)
+                   + " | mean μ | µs/particle |")
+        out.append("|---" * (len(clips) + 3) + "|")
+        for name in [s for s in SETTINGS if any(r["setting"] == s for r in sub)]:
+            cells, mus, costs = [], [], []
+            for clip in clips:
+                got = [r for r in sub if r["setting"] == name and r["clip"] == clip]
+                if not got:
+                    cells.append("")
+                    continue
+                mu = float(np.mean([r["mu_mm"] for r in got]))
+                mmta = float(np.mean([r["mmta_pct"] for r in got]))
+                mus.append(mu)
+                costs += [r["us_per_particle"] for r in got]
+                seeds = f" ({len(got)} seeds)" if len(got) > 1 else ""
+                cells.append(f"{mu:.1f} / {mmta:.0f}{seeds}")
+            weights = next(r["weights"] for r in sub if r["setting"] == name)
+            label = ", ".join(f"{k}" if v == 1 else f"{k}={v:g}" for k, v in weights.items())
+            label = name if label == name else f"{name}: {label}"
+            out.append(f"| {label} | " + " | ".join(cells)
+                       + f" | {np.mean(mus):.1f} | {np.mean(costs):.0f} |")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", type=Path, default=Path("/work/bench/data"))
+    ap.add_argument("--clips", default=",".join(CLIPS))
+    ap.add_argument("--cameras", default="7,2,1", help="camera sets: 7, 2 (C1,C2), 1 (C1)")
+    ap.add_argument("--settings", default=",".join(SETTINGS))
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--layers", type=int, default=4)
+    ap.add_argument("--particles", type=int, default=150)
+    ap.add_argument("--seeds", default="0", help="comma-separated filter seeds (default 0)")
+    ap.add_argument("--init", default="ground_truth", choices=("ground_truth", "extremities"),
+                    help="start: frame 1's ground truth (default), or the voxels' extremities "
+                         "(a mixture of the likeliest starts; the ROI/skin/uniform references "
+                         "are then learnt from that start)")
+    ap.add_argument("--costs", action="store_true", help="time each cue alone on frame 1")
+    ap.add_argument("--json", type=Path, help="append the rows (JSON lines) to this file")
+    ap.add_argument("--table", nargs="+", type=Path, help="print Markdown tables of JSON-lines "
+                                                          "results and exit")
+    args = ap.parse_args(argv)
+    if args.table:
+        print(table(args.table))
+        return 0
+    from voxelmocap.cues import CUES
+
+    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load "
+          f"{open('/proc/loadavg').read().split()[0]}, {args.frames} frames, {args.layers} layers "
+          f"× {args.particles} particles, seeds {args.seeds}, start: {args.init}")
+    print(f"{'clip':16s} {'cams':>4s} {'setting':10s} {'mu_mm':>7s} {'mmta%':>6s} "
+          f"{'us/part':>8s}")
+    for clip in args.clips.split(","):
+        for cam_key in args.cameras.split(","):
+            cams = CAMERA_SETS[cam_key]
+            numbers, obs, gt, model = observations(args.data, clip, cams, args.frames)
+            n_cam = len(obs[0].cameras)
+            if args.costs:
+                for name, us in costs(obs, gt, model, numbers).items():
+                    print(f"{clip:16s} {n_cam:4d} cost {name:10s} {us:8.1f} us/particle")
+                    sys.stdout.flush()
+            for seed in (int(v) for v in args.seeds.split(",")):
+                for name in [n for n in args.settings.split(",") if n]:
+                    weights = SETTINGS[name]
+                    if n_cam < 2 and name == "fused":   # monocular: the image cues' fusion
+                        weights = SETTINGS["image"]
+                    if n_cam < 2 and any(CUES[c].needs_voxels for c in weights):
+                        continue
+                    mu, mmta, us, evals = track(numbers, obs, gt, model, weights,
+                                                layers=args.layers, particles=args.particles,
+                                                seed=seed, init=args.init)
+                    print(f"{clip:16s} {n_cam:4d} {name:10s} {mu:7.1f} {mmta:6.1f} {us:8.1f} "
+                          f"seed {seed}")
+                    sys.stdout.flush()
+                    if args.json:
+                        with args.json.open("a") as f:
+                            f.write(json.dumps({
+                                "clip": clip, "cameras": n_cam, "setting": name,
+                                "weights": weights, "mu_mm": mu, "mmta_pct": mmta,
+                                "us_per_particle": us, "evaluations": evals,
+                                "frames": args.frames, "layers": args.layers,
+                                "particles": args.particles, "seed": seed,
+                                "init": args.init}) + "\n")
+            del obs
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
