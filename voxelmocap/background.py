@@ -417,7 +417,9 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
             person = person_component(carver.carve_with_holes(masks, holes))
             person_frames.append(person)
             volumes[f] = person.sum()
-        typical = float(np.percentile(volumes, 90))
+        # the typical person: the median over the frames where one was found (a few frames
+        # with a background person or a ghost glued on must not set the scale)
+        typical = float(np.median(volumes[volumes > 0])) if volumes.any() else 0.0
         if typical == 0:
             raise InputError("background", "no person found in any frame against the temporal "
                                            "median of the sequence: cannot learn a background "

@@ -118,7 +118,7 @@ class SilhouetteConfig:
     plate_min_seen: int = 1
     #: learnt plate: largest share of an image whose background is never seen (the person is
     #: there in every frame) before the plate is refused; those pixels count as foreground
-    plate_max_unknown: float = 0.25
+    plate_max_unknown: float = 0.4
     #: learnt plate: a pixel whose background samples spread (robust σ) beyond this many times
     #: the camera's noise is no background (a person who never left it, a moving object): it
     #: counts as foreground, and no pixel's noise σ is taken above this multiple
