@@ -126,6 +126,120 @@ def _evaluate_json_unwritable(data, tmp):
             str(tmp / "file" / "r.json")]
 
 
+# ---------------------------------------------------------------------- projects (issue 12)
+def _project(data, tmp) -> Path:
+    """A Pose2Sim project from the tiny data set: calibration/Calib.toml (m), videos/<CAM>.avi."""
+    import shutil
+
+    from voxelmocap.io.calibration import read_rig, write_calibration_toml
+
+    root = tmp / "proj"
+    (root / "calibration").mkdir(parents=True)
+    write_calibration_toml(read_rig(data / "S1" / "Calibration_Data"),
+                           root / "calibration" / "Calib.toml", translation_scale=1000.0)
+    (root / "videos").mkdir()
+    for cam in ("C1", "C2", "BW1"):
+        shutil.copy(data / "S1" / "Image_Data" / f"Walking_1_({cam}).avi",
+                    root / "videos" / f"{cam}.avi")
+    return root
+
+
+def _track_project(root, tmp, *extra):
+    return ["track", str(root), "--out", str(tmp / "run"), "--no-progress", *extra]
+
+
+def _project_camera_without_video(data, tmp):
+    root = _project(data, tmp)
+    (root / "videos" / "BW1.avi").unlink()
+    return _track_project(root, tmp)
+
+
+def _project_video_without_camera(data, tmp):
+    import shutil
+
+    root = _project(data, tmp)
+    shutil.copy(root / "videos" / "C1.avi", root / "videos" / "C9.avi")
+    return _track_project(root, tmp)
+
+
+def _project_unreadable_video(data, tmp):
+    root = _project(data, tmp)
+    (root / "videos" / "C2.avi").write_bytes(b"not a video at all")
+    return ["info", str(root)]
+
+
+def _project_size_mismatch(data, tmp):
+    import cv2
+
+    root = _project(data, tmp)
+    writer = cv2.VideoWriter(str(root / "videos" / "C2.avi"), cv2.VideoWriter_fourcc(*"MJPG"),
+                             60.0, (600, 480))
+    for _ in range(3):
+        writer.write(np.zeros((480, 600, 3), np.uint8))
+    writer.release()
+    return ["info", str(root)]
+
+
+def _project_unknown_calibration(data, tmp):
+    root = _project(data, tmp)
+    (root / "calibration" / "Calib.toml").rename(root / "calibration" / "calib.json")
+    return _track_project(root, tmp)
+
+
+def _project_calibration_option_unknown(data, tmp):
+    root = _project(data, tmp)
+    (tmp / "calib.xml").write_text("<calibration/>")
+    return _track_project(root, tmp, "--calibration", str(tmp / "calib.xml"))
+
+
+def _qca_viewrotation(data, tmp):
+    root = _project(data, tmp)
+    (root / "calibration" / "Calib.toml").unlink()
+    (root / "calibration" / "Calib.qca.txt").write_text(
+        '<calibration><cameras><camera serial="C1" model="none" viewrotation="90">'
+        '<fov_video left="0" top="0" right="639" bottom="479"/></camera></cameras></calibration>')
+    return ["info", str(root)]
+
+
+def _easymocap_broken_extri(data, tmp):
+    import shutil
+
+    from voxelmocap.io.calibration import read_rig
+    from voxelmocap.io.easymocap import write_easymocap
+
+    root = tmp / "emc"
+    (root / "videos").mkdir(parents=True)
+    write_easymocap(read_rig(data / "S1" / "Calibration_Data"), root)
+    for cam in ("C1", "C2", "BW1"):
+        shutil.copy(data / "S1" / "Image_Data" / f"Walking_1_({cam}).avi",
+                    root / "videos" / f"{cam}.avi")
+    extri = root / "extri.yml"
+    extri.write_text(extri.read_text().replace("T_C2", "Translation_C2"))
+    return _track_project(root, tmp)
+
+
+def _project_two_trials(data, tmp):
+    import shutil
+
+    root = _project(data, tmp)
+    shutil.move(str(root / "videos"), str(root / "Trial_1" / "videos"))
+    shutil.copytree(root / "Trial_1", root / "Trial_2")
+    return _track_project(root, tmp)
+
+
+def _humaneva_without_subject(data, tmp):
+    return ["track", str(data), "--out", str(tmp / "run"), "--no-progress"]
+
+
+def _not_a_layout(data, tmp):
+    (tmp / "empty").mkdir()
+    return ["info", str(tmp / "empty")]
+
+
+def _import_humaneva(data, tmp):
+    return ["import", str(data), "--out", str(tmp / "he"), "--no-progress"]
+
+
 CASES: list[Case] = [
     Case("track --config: TOML file that is not UTF-8", _config_not_utf8("track"),
          ("{tmp}/cfg.toml", "not UTF-8")),
@@ -149,4 +263,29 @@ CASES: list[Case] = [
     Case("overlay --fps 0", _overlay_fps_zero, ("frame rate must be a positive number",)),
     Case("ground truth coordinate 1e308", _gt_huge_coordinate, ("Walking_1.xml", "1e308")),
     Case("evaluate --json below a file", _evaluate_json_unwritable, ("{tmp}/file",)),
+    Case("project: the calibration names a camera the videos lack",
+         _project_camera_without_video,
+         ("{tmp}/proj/videos", "calibration camera BW1 (Calib.toml) has no video")),
+    Case("project: a video no calibration camera matches", _project_video_without_camera,
+         ("{tmp}/proj/videos/C9.avi", "no camera of the calibration")),
+    Case("project: an unreadable video", _project_unreadable_video,
+         ("{tmp}/proj/videos/C2.avi", "cannot open video")),
+    Case("project: video size far from the calibration's", _project_size_mismatch,
+         ("{tmp}/proj/videos/C2.avi", "600x480 cannot be the calibration's 640x480")),
+    Case("project: calibration folder with no known format", _project_unknown_calibration,
+         ("{tmp}/proj/calibration", "no calibration file", "calib.json")),
+    Case("project: --calibration of an unknown format", _project_calibration_option_unknown,
+         ("{tmp}/calib.xml", "unknown calibration format")),
+    Case("Qualisys .qca.txt with a rotated camera", _qca_viewrotation,
+         ("{tmp}/proj/calibration/Calib.qca.txt", "viewrotation=90")),
+    Case("EasyMocap extri.yml without a camera's T", _easymocap_broken_extri,
+         ("{tmp}/emc/extri.yml", "no 'T_C2'")),
+    Case("project with several trials and no --trial", _project_two_trials,
+         ("{tmp}/proj", "choose one with --trial")),
+    Case("track on the HumanEva layout without --subject/--sequence", _humaneva_without_subject,
+         ("{data}", "needs --subject and --sequence")),
+    Case("a folder that is neither a data set nor a project", _not_a_layout,
+         ("{tmp}/empty", "not a Pose2Sim")),
+    Case("import of a HumanEva-layout data set", _import_humaneva,
+         ("{data}", "HumanEva-layout data set already")),
 ]

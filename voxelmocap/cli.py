@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "synth": "synth",
     "info": "info",
+    "import": "import_",
     "track": "track",
     "evaluate": "evaluate",
     "groundtruth": "groundtruth",

@@ -57,9 +57,9 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
         Not exactly one matching result, unreadable data, an output that is not a video name or
         cannot be written, a frame rate that is not positive.
     """
-    from .io.humaneva import Dataset
     from .io.reports import find_result_files
     from .io.results import read_result
+    from .io.sequence import open_sequence
     from .io.video_writer import VideoWriter, check_video_path
     from .joints import endpoints_to_landmarks
     from .pipeline import body_model_for
@@ -76,8 +76,8 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
     path = files[0]
     result = read_result(path)
     every = camera.lower() == ALL_CAMERAS
-    seq = Dataset(dataset_root).sequence(path.parent.name, path.stem,
-                                         cameras=None if every else [camera])
+    seq = open_sequence(dataset_root, path.parent.name, path.stem,
+                        cameras=None if every else [camera])
     cam = None if every else seq.rig[camera]
     gt = seq.ground_truth()
     model, _ = body_model_for(seq, gt)

@@ -296,7 +296,7 @@ class DumpOutcome:
 def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
                   config: TrackConfig | None = None, frames: str | None = None, cameras=None,
                   masks: bool = False, ply_dir=None, ply_points: bool = False,
-                  progress: bool = True, log=print) -> DumpOutcome:
+                  progress: bool = True, log=print, trial: str | None = None) -> DumpOutcome:
     """Measure the frames of one sequence and write every volume to a voxel dump.
 
     Parameters
@@ -323,6 +323,9 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
         Show a progress bar.
     log : callable
         Where one-line messages go.
+    trial : str, optional
+        Project trial (a Pose2Sim / anipose / EasyMocap project, :func:`~voxelmocap.io.sequence.
+        open_sequence`; default its only trial).
 
     Returns
     -------
@@ -336,7 +339,7 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     """
     from .config import config_to_toml
     from .frames import parse_frame_range
-    from .io.humaneva import Dataset
+    from .io.sequence import open_sequence
     from .io.voxels import VoxelDumpWriter, write_ply
 
     config = config or TrackConfig()
@@ -348,7 +351,7 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     ply_dir = Path(ply_dir) if ply_dir is not None else None
     if ply_dir is not None and ply_dir.exists() and not ply_dir.is_dir():
         raise InputError(ply_dir, "exists and is not a folder")
-    seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
+    seq = open_sequence(dataset_root, subject, sequence, trial=trial, cameras=cameras)
     if log is not None:
         for problem in seq.problems:  # cameras the data set has but this run cannot use
             log(f"warning: {problem}")

@@ -122,18 +122,20 @@ def _result_paths(out_dir: Path, seq) -> tuple[Path, Path, Path]:
     return base.with_suffix(".h5"), base.with_suffix(".xml"), base.with_suffix(".bvh")
 
 
-def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
+def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_dir, *,
                    config: TrackConfig | None = None, frames: str | None = None,
                    cameras=None, seed: int = 0, resume: bool = False, overwrite: bool = False,
-                   progress: bool = True, log=print, fps: float | None = None) -> TrackOutcome:
+                   progress: bool = True, log=print, fps: float | None = None,
+                   trial: str | None = None, calibration=None) -> TrackOutcome:
     """Track one sequence and write its results (see the module docstring).
 
     Parameters
     ----------
     dataset_root : str or os.PathLike
-        HumanEva-layout data set.
-    subject, sequence : str
-        E.g. ``"S1"``, ``"Walking_1"``.
+        HumanEva-layout data set, or a Pose2Sim / anipose / EasyMocap project
+        (:func:`voxelmocap.io.sequence.open_sequence`).
+    subject, sequence : str or None
+        E.g. ``"S1"``, ``"Walking_1"`` (HumanEva layout; for a project either may name the trial).
     out_dir : str or os.PathLike
         The run folder ``RUN``.
     config : TrackConfig, optional
@@ -156,14 +158,22 @@ def track_sequence(dataset_root, subject: str, sequence: str, out_dir, *,
     fps : float, optional
         Frame rate (Hz) of the BVH and the result file; default the sequence's own
         (``Sequence.frame_rate``: the video metadata, else HumanEva-I's 60 Hz).
+    trial : str, optional
+        Project trial (default: the only one). Results go to ``RUN/<trial>/<trial>.*``.
+    calibration : str or os.PathLike, optional
+        Project only: a calibration file instead of the project's own.
     """
-    from .io.humaneva import Dataset
     from .io.results import ResultWriter
+    from .io.sequence import open_sequence
 
     config = config or TrackConfig()
-    seq = Dataset(dataset_root).sequence(subject, sequence, cameras=cameras)
+    seq = open_sequence(dataset_root, subject, sequence, trial=trial, cameras=cameras,
+                        calibration=calibration)
+    _ = seq.rig  # reads the calibration and reconciles image sizes (notes below)
     for problem in seq.problems:  # cameras the data set has but this run cannot use
         log(f"warning: {problem}")
+    for note in seq.notes:  # what was assumed in reading a project
+        log(f"note: {note}")
     gt = seq.ground_truth()
     selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)

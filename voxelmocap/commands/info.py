@@ -1,4 +1,4 @@
-"""``voxelmocap info DATASET``: list and validate a HumanEva-layout data set."""
+"""``voxelmocap info DATASET``: list and validate a HumanEva-layout data set or a project."""
 
 from __future__ import annotations
 
@@ -9,15 +9,21 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "info",
         help="list subjects, sequences, cameras, frame counts and sync offsets; validate files",
-        description="List what a HumanEva-I-layout data set holds and validate every file read: "
+        description="List what a HumanEva-I-layout data set, or a Pose2Sim / anipose / "
+                    "EasyMocap project (docs/projects.md), holds and validate every file read: "
                     "calibration, sync files, videos (opened, first frame decoded and its size "
-                    "checked), background videos, ground-truth XML and subject body files. Exit "
+                    "checked), background videos, ground-truth XML and subject body files; for a "
+                    "project, what was assumed (camera matching, image sizes, units). Exit "
                     "status: 0 all valid; 1 data that cannot be used (e.g. a camera with a video "
                     "but no sync file), listed as problems; 2 a file that cannot be read.",
     )
-    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
+    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …) "
+                                        "or a Pose2Sim / anipose / EasyMocap project folder")
     parser.add_argument("--subject", help="only this subject")
     parser.add_argument("--sequence", help="only this sequence (<Action>_<Trial>)")
+    parser.add_argument("--trial", help="project: only this trial")
+    parser.add_argument("--calibration", help="project: a calibration file instead of the "
+                                              "project's own")
     parser.set_defaults(run=run)
 
 
@@ -86,11 +92,52 @@ def describe(dataset, subject=None, sequence=None) -> tuple[list[str], list[str]
     return lines, problems
 
 
-def run(args: argparse.Namespace) -> int:
-    from ..io.humaneva import Dataset
+def describe_project(project, trial=None) -> tuple[list[str], list[str]]:
+    """Validate and describe a project's trials (raises InputError on what cannot be read).
 
-    dataset = Dataset(args.dataset)
-    lines, problems = describe(dataset, args.subject, args.sequence)
+    Returns
+    -------
+    lines : list of str
+        The report, with every assumption made (``note:`` lines).
+    problems : list of str
+        Data that cannot be used although present.
+    """
+    lines = [f"{project.kind} project {project.root}"]
+    names = [project.trial(trial).name] if trial else list(project.trials)
+    lines.append(f"  {len(project.trials)} trial(s): {', '.join(project.trials)}")
+    problems = []
+    for name in names:
+        seq = project.sequence(name)
+        seq.check_backgrounds()
+        lines.extend(seq.describe())
+        problems.extend(f"{name}: {p}" for p in seq.problems)
+    lines.append("  no ground truth, no body file")
+    if problems:
+        lines.append(f"all files read are valid, but {len(problems)} problem(s) leave data unused:")
+        lines.extend(f"  {p}" for p in problems)
+    else:
+        lines.append("all files read are valid")
+    return lines, problems
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import InputError
+    from ..io.sequence import detect_layout
+
+    if detect_layout(args.dataset) == "humaneva":
+        from ..io.humaneva import Dataset
+
+        for option in ("trial", "calibration"):
+            if getattr(args, option):
+                raise InputError(f"--{option}", "is for projects; a HumanEva-layout data set has "
+                                                "--subject and --sequence")
+        lines, problems = describe(Dataset(args.dataset), args.subject, args.sequence)
+    else:
+        from ..io.project import Project
+
+        trial = args.trial or args.sequence or args.subject
+        lines, problems = describe_project(Project(args.dataset, calibration=args.calibration),
+                                           trial)
     for line in lines:
         print(line)
     return 1 if problems else 0

@@ -9,16 +9,23 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "track",
         help="track one sequence: silhouettes → voxels → annealed particle filter → poses",
-        description="Track one HumanEva-layout sequence. Writes RUN/<Subject>/<Action>_<Trial>.h5 "
+        description="Track one sequence of a HumanEva-layout data set (--subject, --sequence) or "
+                    "one trial of a Pose2Sim, anipose or EasyMocap project (--trial when it has "
+                    "several; see docs/projects.md). Writes RUN/<Subject>/<Action>_<Trial>.h5 "
+                    "(a project: RUN/<trial>/<trial>.h5) "
                     "(states, landmarks, endpoints, per-part scores, ESS, timing, config), the "
                     "body_pose XML of the estimates and a BVH of the tracked skeleton (at the "
                     "video's frame rate). Every frame is committed to the result file with the "
                     "filter's state as it is tracked, so --resume continues an interrupted run "
                     "exactly; a result being written by another run is refused.",
     )
-    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …)")
-    parser.add_argument("--subject", required=True, help="e.g. S1")
-    parser.add_argument("--sequence", required=True, help="<Action>_<Trial>, e.g. Walking_1")
+    parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …) "
+                                        "or a Pose2Sim / anipose / EasyMocap project folder")
+    parser.add_argument("--subject", help="HumanEva layout: e.g. S1")
+    parser.add_argument("--sequence", help="HumanEva layout: <Action>_<Trial>, e.g. Walking_1")
+    parser.add_argument("--trial", help="project: the trial to track (default: the only one)")
+    parser.add_argument("--calibration", help="project: a calibration file (.toml, .qca.txt, "
+                                              "intri.yml) instead of the project's own")
     parser.add_argument("--frames", help="synchronised frames A:B (inclusive; default: every "
                                          "frame with ground truth)")
     parser.add_argument("--config", help="TOML file with [measurement], [likelihood], [filter], "
@@ -57,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
     outcome = track_sequence(args.dataset, args.subject, args.sequence, args.out, config=config,
                              frames=args.frames, cameras=cameras, seed=args.seed,
                              resume=args.resume, overwrite=args.overwrite,
-                             progress=not args.no_progress)
+                             progress=not args.no_progress, trial=args.trial,
+                             calibration=args.calibration)
     print(f"tracked {len(outcome.frames)} frames ({outcome.frames[0]}–{outcome.frames[-1]}), "
           f"{1.0 / outcome.seconds_per_frame:.2f} frames/s")
     print(f"results: {outcome.result_path}")

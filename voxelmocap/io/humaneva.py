@@ -28,16 +28,17 @@ from collections.abc import Iterable, Iterator
 from functools import cached_property
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from ..camera import Camera, Rig, sort_camera_names
+from ..camera import Rig, sort_camera_names
 from ..errors import InputError
 from ..joints import endpoints_to_landmarks
 from ._atomic import atomic_write_text
 from ._files import read_text_file
 from .body_pose_xml import BodyPoseSequence, read_body_pose_xml, write_body_pose_xml
 from .calibration import read_rig
+from .synchronised import SynchronisedVideos
+from .video import VideoStream as _VideoStream
 
 __all__ = [
     "BodyPoseSequence",
@@ -53,7 +54,6 @@ __all__ = [
 
 _SEQ_FILE = re.compile(r"^(?P<action>[A-Za-z]+)_(?P<trial>\d+)_\((?P<cam>[A-Za-z0-9]+)\)$")
 _BACKGROUND = re.compile(r"^Background_(?P<k>[^_]+)_\((?P<cam>[A-Za-z0-9]+)\)\.avi$", re.I)
-_IMAGE_SUFFIXES = {".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg"}
 _GRAY_PREFIX = "BW"
 #: HumanEva-I's cameras all record at 60 Hz; used when no video states its rate.
 HUMANEVA_I_FRAME_RATE = 60.0
@@ -142,98 +142,6 @@ def _matlab_round(x: float) -> float:
     return math.floor(abs(x) + 0.5) * (1 if x >= 0 else -1)
 
 
-# ---------------------------------------------------------------------- video streams
-class _VideoStream:
-    """Frames of one camera: an AVI file (OpenCV) or a folder of numbered images."""
-
-    def __init__(self, path: Path, gray: bool):
-        self.path = path
-        self.gray = gray
-        if path.is_dir():
-            files = [p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES]
-            numbered = {}
-            for p in files:
-                digits = re.findall(r"\d+", p.stem)
-                if digits:
-                    numbered[int(digits[-1])] = p
-            if not numbered:
-                raise InputError(path, "image folder holds no numbered image files")
-            # Video frame k (1-based) is the file with counter first + k − 1 (toolkit
-            # cur_image); a gap is an error, never a silent shift of later frames.
-            self._first = min(numbered)
-            self._files = numbered
-            self.n_frames = max(numbered) - self._first + 1
-            self.fps = None  # numbered images carry no frame rate
-        else:
-            self._files = None
-            cap = cv2.VideoCapture(str(path))
-            try:
-                if not cap.isOpened():
-                    raise InputError(path, "cannot open video (missing file or unsupported codec)")
-                self.n_frames = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
-                fps = float(cap.get(cv2.CAP_PROP_FPS))
-                #: the container's frame rate (Hz), None when it states none
-                self.fps = fps if math.isfinite(fps) and fps > 0 else None
-            finally:
-                cap.release()
-            if self.n_frames <= 0:
-                raise InputError(path, "video has no frames")
-
-    def _convert(self, image: np.ndarray, index: int) -> np.ndarray:
-        if image is None:
-            raise InputError(self.path, f"cannot decode frame {index + 1}")
-        if image.dtype != np.uint8:
-            raise InputError(self.path, f"frame {index + 1} is {image.dtype}, 8-bit images expected")
-        if image.ndim == 3 and image.shape[2] == 4:  # PNG with alpha: the alpha is not a mask here
-            image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
-        if self.gray and image.ndim == 3:
-            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        elif not self.gray and image.ndim == 2:
-            image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-        return image
-
-    def read(self, indices: Iterable[int]) -> Iterator[tuple[int, np.ndarray]]:
-        """Yield ``(index, image)`` for sorted 0-based ``indices``; seeks only when needed."""
-        indices = list(indices)
-        if self._files is not None:
-            for i in indices:
-                if not 0 <= i < self.n_frames:
-                    raise InputError(self.path, f"frame {i + 1} is outside 1..{self.n_frames}")
-                file = self._files.get(self._first + i)
-                if file is None:
-                    raise InputError(self.path, f"no image file with counter {self._first + i} "
-                                                f"(video frame {i + 1})")
-                yield i, self._convert(cv2.imread(str(file), cv2.IMREAD_UNCHANGED), i)
-            return
-        cap = cv2.VideoCapture(str(self.path))
-        try:
-            if not cap.isOpened():
-                raise InputError(self.path, "cannot open video")
-            pos = 0
-            for i in indices:
-                if not 0 <= i < self.n_frames:
-                    raise InputError(self.path, f"frame {i + 1} is outside 1..{self.n_frames}")
-                if i != pos:
-                    if i > pos and i - pos < 30:
-                        while pos < i:  # decoding forward is exact; seeking may not be
-                            if not cap.grab():
-                                raise InputError(self.path, f"cannot decode frame {pos + 1}")
-                            pos += 1
-                    else:
-                        cap.set(cv2.CAP_PROP_POS_FRAMES, i)
-                        pos = i
-                ok, image = cap.read()
-                pos += 1
-                if not ok:
-                    raise InputError(self.path, f"cannot decode frame {i + 1} of {self.n_frames}")
-                yield i, self._convert(image, i)
-        finally:
-            cap.release()
-
-    def first_frame(self) -> np.ndarray:
-        return next(iter(self.read([0])))[1]
-
-
 def _find_dir(parent: Path, name: str) -> Path | None:
     """Case-insensitive child directory lookup."""
     if not parent.is_dir():
@@ -315,7 +223,7 @@ class Dataset:
         return _find_dir(self.root, "Background")
 
 
-class Sequence:
+class Sequence(SynchronisedVideos):
     """One ``<Subject>/<Action>_<Trial>`` sequence: cameras, sync, frames and ground truth.
 
     Use :meth:`Dataset.sequence` to open one.
@@ -346,6 +254,8 @@ class Sequence:
         self.problems: list[str] = [
             f"camera {cam} has a video but no sync file {sync_dir / f'{name}_({cam}).ofs'}: "
             "not used" for cam in self.unsynced_cameras]
+        #: assumptions made in reading the sequence (none for this layout; see io.project)
+        self.notes: list[str] = []
         names = all_names
         if cameras is not None:
             names = self._select(cameras, all_names, sync_dir)
@@ -426,20 +336,6 @@ class Sequence:
     def _streams(self) -> dict[str, _VideoStream]:
         return {cam: _VideoStream(self.video_path(cam), _is_gray(cam)) for cam in self.camera_names}
 
-    def video_frame_counts(self) -> dict[str, int]:
-        """Number of video frames per camera."""
-        return {cam: s.n_frames for cam, s in self._streams.items()}
-
-    @cached_property
-    def n_frames(self) -> int:
-        """Synchronised frames available in every camera: ``min_I(N_I − starts[I] + 1)``.
-
-        The toolkit's ``n_frames`` returns ``N_I − starts[I]``, one less, which drops the last
-        frame a video does hold; here every decodable frame counts.
-        """
-        counts = self.video_frame_counts()
-        return max(0, min(counts[c] - self.starts[c] + 1 for c in self.camera_names))
-
     @cached_property
     def frame_rate(self) -> float:
         """Frames per second: the first used camera's video metadata, else 60 Hz (HumanEva-I)."""
@@ -447,20 +343,6 @@ class Sequence:
             if self._streams[cam].fps is not None:
                 return self._streams[cam].fps
         return HUMANEVA_I_FRAME_RATE
-
-    @property
-    def frame_numbers(self) -> np.ndarray:
-        """(n_frames,) 1-based synchronised frame numbers."""
-        return np.arange(1, self.n_frames + 1)
-
-    def check_frames(self, frames: Iterable[int]) -> list[int]:
-        """Validate 1-based synchronised frame numbers; returns them sorted."""
-        frames = sorted(int(f) for f in frames)
-        bad = [f for f in frames if not 1 <= f <= self.n_frames]
-        if bad:
-            raise InputError(f"{self.subject}/{self.name}",
-                             f"frame {bad[0]} is outside the synchronised range 1..{self.n_frames}")
-        return frames
 
     def check_video_sizes(self) -> None:
         """Decode each camera's first frame and compare its size with the calibration's."""
@@ -471,41 +353,6 @@ class Sequence:
                 raise InputError(self._streams[cam].path,
                                  f"frame size {w}x{h} differs from the calibration's "
                                  f"{self.rig[cam].size[0]}x{self.rig[cam].size[1]}")
-
-    def frames(self, frames: Iterable[int] | None = None
-               ) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
-        """Iterate synchronised frames.
-
-        Parameters
-        ----------
-        frames : iterable of int, optional
-            1-based synchronised frame numbers (all by default).
-
-        Yields
-        ------
-        F : int
-            The synchronised frame number.
-        images : dict of str to ndarray
-            Per camera: ``(H, W, 3)`` uint8 BGR for colour cameras, ``(H, W)`` uint8 for BW cameras.
-        """
-        wanted = self.check_frames(self.frame_numbers if frames is None else frames)
-        readers = {cam: self._streams[cam].read([self.starts[cam] + f - 2 for f in wanted])
-                   for cam in self.camera_names}
-        sizes = {cam: tuple(self.rig[cam].size) for cam in self.camera_names}
-        for f in wanted:
-            images = {}
-            for cam, reader in readers.items():
-                _, image = next(reader)
-                if (image.shape[1], image.shape[0]) != sizes[cam]:
-                    raise InputError(self._streams[cam].path,
-                                     f"frame size {image.shape[1]}x{image.shape[0]} differs from "
-                                     f"the calibration's {sizes[cam][0]}x{sizes[cam][1]}")
-                images[cam] = image
-            yield f, images
-
-    def read_frame(self, frame: int) -> dict[str, np.ndarray]:
-        """The images of one synchronised frame ``{camera: image}``."""
-        return next(self.frames([frame]))[1]
 
     # ------------------------------------------------------------------ backgrounds
     def background_paths(self, camera: str) -> list[Path]:
@@ -594,10 +441,6 @@ class Sequence:
             if p.is_file() and p.name.lower() == f"{self.subject}_body.toml".lower():
                 return p
         return None
-
-    def camera(self, name: str) -> Camera:
-        """One camera of the rig."""
-        return self.rig[name]
 
     def __repr__(self) -> str:
         return (f"Sequence({self.subject}/{self.name}, cameras={','.join(self.camera_names)}, "

@@ -1,0 +1,181 @@
+"""EasyMocap's OpenCV calibration files ``intri.yml`` and ``extri.yml``.
+
+Both are OpenCV ``FileStorage`` YAML (``%YAML:1.0``) with a ``names`` list of camera names and
+per camera (EasyMocap ``mytools/camera_utils.read_camera``):
+
+* ``intri.yml``: ``K_<name>`` (3×3), ``dist_<name>`` (1×5 ``k1 k2 p1 p2 k3``; ``D_<name>`` in
+  older files), optionally ``H_<name>`` and ``W_<name>`` (image size);
+* ``extri.yml``: ``R_<name>`` (3×1 Rodrigues vector, world→camera), ``Rot_<name>`` (the same as
+  a 3×3 matrix, used when ``R_`` is missing), ``T_<name>`` (3×1, metres; ``X_cam = R X + T``).
+
+Translations are converted to millimetres. A camera without ``H_``/``W_`` gets a placeholder size
+and is listed as *unsized*: the project takes its size from its video.
+
+>>> rig, unsized = read_easymocap("intri.yml", "extri.yml")         # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..camera import Camera, Rig
+from ..errors import InputError
+from ._atomic import atomic_write_text
+
+__all__ = ["read_easymocap", "write_easymocap"]
+
+#: Size given to a camera whose ``intri.yml`` has no ``H_``/``W_`` (replaced by the video's).
+PLACEHOLDER_SIZE = (1, 1)
+
+
+class _Storage:
+    """A read-only ``cv2.FileStorage`` whose failures are :class:`InputError` naming the file."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        if not path.is_file():
+            raise InputError(path, "calibration file not found")
+        try:
+            self.fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        except (cv2.error, SystemError) as exc:
+            # OpenCV 5's binding reports a parse error as a SystemError wrapping the cv2.error.
+            cause = exc.__cause__ if isinstance(exc, SystemError) and exc.__cause__ else exc
+            raise InputError(path, f"not an OpenCV YAML file ({_first_line(cause)})") from None
+        if not self.fs.isOpened():
+            raise InputError(path, "cannot read as an OpenCV YAML file")
+
+    def names(self) -> list[str]:
+        node = self.fs.getNode("names")
+        if node.empty() or not node.isSeq():
+            raise InputError(self.path, "no 'names' list of cameras")
+        out = []
+        for i in range(node.size()):
+            item = node.at(i)
+            value = item.string() if item.isString() else str(int(item.real()))
+            if value != "none":  # EasyMocap skips "none"
+                out.append(value)
+        if not out:
+            raise InputError(self.path, "the 'names' list is empty")
+        return out
+
+    def matrix(self, key: str, shape, *, required: bool = True):
+        node = self.fs.getNode(key)
+        if node.empty():
+            if required:
+                raise InputError(self.path, f"no {key!r}")
+            return None
+        try:
+            value = node.mat()
+        except (cv2.error, SystemError):
+            value = None
+        if value is None:
+            raise InputError(self.path, f"{key!r} is not an opencv-matrix")
+        value = np.asarray(value, dtype=float)
+        if shape is not None and value.size != int(np.prod(shape)):
+            raise InputError(self.path, f"{key!r} has {value.size} values, expected "
+                                        f"{int(np.prod(shape))}")
+        if not np.all(np.isfinite(value)):
+            raise InputError(self.path, f"{key!r} contains NaN or infinite values")
+        return value if shape is None else value.reshape(shape)
+
+    def integer(self, key: str):
+        node = self.fs.getNode(key)
+        if node.empty():
+            return None
+        value = node.real()
+        if not (np.isfinite(value) and value >= 1 and value == int(value)):
+            raise InputError(self.path, f"{key!r} must be a positive integer, got {value!r}")
+        return int(value)
+
+    def close(self):
+        self.fs.release()
+
+
+def _first_line(exc: Exception) -> str:
+    lines = [s.strip() for s in str(exc).splitlines() if s.strip()]
+    return lines[-1][:120] if lines else exc.__class__.__name__
+
+
+def read_easymocap(intri, extri) -> tuple[Rig, set[str]]:
+    """Read EasyMocap's ``intri.yml`` + ``extri.yml`` into a rig in millimetres.
+
+    Returns
+    -------
+    rig : Rig
+        The cameras in ``intri.yml``'s ``names`` order.
+    unsized : set of str
+        Cameras without ``H_``/``W_`` (size :data:`PLACEHOLDER_SIZE`, to be taken from the video).
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, a camera of ``intri.yml`` missing from ``extri.yml``, a
+        missing or malformed matrix, distortion terms beyond ``k3``.
+    """
+    intri, extri = Path(intri), Path(extri)
+    fi, fe = _Storage(intri), _Storage(extri)
+    try:
+        names = fi.names()
+        cameras, unsized = [], set()
+        for name in names:
+            K = fi.matrix(f"K_{name}", (3, 3))
+            dist = fi.matrix(f"dist_{name}", None, required=False)
+            if dist is None:
+                dist = fi.matrix(f"D_{name}", None, required=False)
+            dist = np.zeros(5) if dist is None else dist.reshape(-1)
+            if dist.size > 5 and np.any(dist[5:] != 0):
+                raise InputError(intri, f"dist_{name} has terms beyond k3, which the camera model "
+                                        "cannot hold")
+            dist = np.concatenate([dist[:5], np.zeros(max(0, 5 - dist.size))])
+            h, w = fi.integer(f"H_{name}"), fi.integer(f"W_{name}")
+            rvec = fe.matrix(f"R_{name}", (3,), required=False)
+            if rvec is None:
+                rot = fe.matrix(f"Rot_{name}", (3, 3), required=False)
+                if rot is None:
+                    raise InputError(extri, f"no R_{name} or Rot_{name} for camera {name!r}")
+                rvec = cv2.Rodrigues(rot)[0].reshape(3)
+            tvec = fe.matrix(f"T_{name}", (3,)) * 1000.0
+            size = (w, h) if h is not None and w is not None else PLACEHOLDER_SIZE
+            if size == PLACEHOLDER_SIZE:
+                unsized.add(name)
+            cameras.append(Camera.from_opencv(name, K, dist, rvec, tvec, size=size,
+                                              source=f"{intri} [{name}]"))
+    finally:
+        fi.close()
+        fe.close()
+    return Rig(cameras), unsized
+
+
+def _matrix(key: str, value: np.ndarray) -> str:
+    value = np.atleast_2d(np.asarray(value, dtype=float))
+    data = ", ".join(f"{v:.17g}" for v in value.reshape(-1))
+    return (f"{key}: !!opencv-matrix\n  rows: {value.shape[0]}\n  cols: {value.shape[1]}\n"
+            f"  dt: d\n  data: [{data}]\n")
+
+
+def write_easymocap(rig, folder, *, sizes: bool = True) -> tuple[Path, Path]:
+    """Write a rig as EasyMocap's ``intri.yml`` and ``extri.yml`` in ``folder`` (atomically).
+
+    Values are written with 17 significant digits (exact round trip); translations in metres.
+    ``sizes=False`` leaves out ``H_``/``W_`` as EasyMocap's own calibration tools do.
+    """
+    folder = Path(folder)
+    cameras = list(rig)
+    names = "names:\n" + "".join(f'  - "{c.name}"\n' for c in cameras)
+    intri, extri = ["%YAML:1.0\n---\n", names], ["%YAML:1.0\n---\n", names]
+    for cam in cameras:
+        K, dist, rvec, tvec = cam.to_opencv()
+        intri.append(_matrix(f"K_{cam.name}", K))
+        intri.append(_matrix(f"dist_{cam.name}", dist.reshape(1, -1)))
+        if sizes:
+            intri.append(f"H_{cam.name}: {int(cam.size[1])}\nW_{cam.name}: {int(cam.size[0])}\n")
+        extri.append(_matrix(f"R_{cam.name}", rvec.reshape(3, 1)))
+        extri.append(_matrix(f"Rot_{cam.name}", cam.R))
+        extri.append(_matrix(f"T_{cam.name}", (tvec / 1000.0).reshape(3, 1)))
+    paths = folder / "intri.yml", folder / "extri.yml"
+    atomic_write_text(paths[0], "".join(intri))
+    atomic_write_text(paths[1], "".join(extri))
+    return paths

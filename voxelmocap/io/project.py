@@ -1,0 +1,481 @@
+"""Pose2Sim, anipose and EasyMocap projects opened as they are (no conversion).
+
+Layouts recognised (``docs/projects.md`` says more)::
+
+    Pose2Sim   <project>/calibration/<file>.toml | <file>.qca.txt | intri.yml + extri.yml
+               <project>/videos/<cam>.mp4 … (or image folders)            one trial: <project>
+               <project>/<trial>/videos/…  (calibration/ in the trial or the project)  several
+    anipose    <session>/calibration/calibration.toml (or <session>/calibration.toml)
+               <session>/videos-raw/<trial>-cam<A>.mp4 …  (trials by the config's cam_regex)
+               or <project>/<session>/… for several sessions
+    EasyMocap  <project>/intri.yml, extri.yml, videos/<cam>.mp4 (or images/<cam>/ folders)
+
+Every trial is one :class:`ProjectSequence`: its videos are assumed synchronised frame by frame
+(frame k of every video is the same instant, as in Pose2Sim once synchronised), frame rate from
+the videos, no ground truth and no body file. Results of a trial go to ``RUN/<trial>/<trial>.*``.
+
+What is assumed is said in the sequence's ``notes`` (``voxelmocap info`` prints them):
+
+* camera names: a video belongs to the calibration camera of the same name (case, separators and
+  leading zeros ignored: ``cam01.mp4`` ↔ ``cam_1``), or whose name it contains as a whole word
+  (``cam01_img/`` ↔ ``cam01``); when no name matches at all and there are as many videos as
+  cameras, they are paired in natural order (what Pose2Sim does);
+* image size: a video a few columns or rows (≤ 16, ``project_checks.SIZE_TOLERANCE``) narrower
+  or wider than the calibration is taken as the calibrated image cropped or padded on the right /
+  bottom (the principal point is kept); a larger difference is refused;
+* calibration units: see :mod:`voxelmocap.io.calibration_files`;
+* world frame: the tracker assumes +Z up with the floor at Z = 0 (mm); when the cameras' mean up
+  direction is far from +Z, or the cameras stand near Z = 0, a note says so
+  (:func:`~voxelmocap.io.project_checks.world_frame_notes`); nothing is re-expressed.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from ..camera import Rig
+from ..errors import InputError
+from .calibration_files import calibration_format, find_calibration, read_calibration_file
+from .project_checks import match_cameras, reconcile_size, world_frame_notes
+from .synchronised import SynchronisedVideos
+from .video import VideoStream, find_videos, natural_key
+
+__all__ = ["Project", "ProjectSequence", "Trial", "project_kind"]
+
+#: Frame rate assumed for image folders when nothing states one (Hz).
+DEFAULT_FRAME_RATE = 30.0
+#: anipose's default ``[triangulation] cam_regex``.
+ANIPOSE_CAM_REGEX = r"-cam([A-Z])"
+_MAX_DEPTH = 2
+
+
+def _child_dir(parent: Path, *names: str) -> Path | None:
+    """A child folder named like one of ``names`` (case-insensitive), or None."""
+    if not parent.is_dir():
+        return None
+    wanted = [n.lower() for n in names]
+    for name in names:
+        if (parent / name).is_dir():
+            return parent / name
+    for child in sorted(parent.iterdir()):
+        if child.is_dir() and child.name.lower() in wanted:
+            return child
+    return None
+
+
+def _child_file(parent: Path, *names: str) -> Path | None:
+    if not parent.is_dir():
+        return None
+    wanted = [n.lower() for n in names]
+    for child in sorted(parent.iterdir()):
+        if child.is_file() and child.name.lower() in wanted:
+            return child
+    return None
+
+
+def _folders_with(root: Path, name: str, depth: int = _MAX_DEPTH) -> list[Path]:
+    """``root`` if it has a child folder ``name``, else its descendants (≤ depth) that have one."""
+    if _child_dir(root, name):
+        return [root]
+    out = []
+    if depth <= 0:
+        return out
+    for child in sorted(root.iterdir(), key=lambda p: natural_key(p.name)):
+        if child.is_dir() and not child.name.startswith(".") and child.name.lower() not in (
+                "calibration", "videos", "videos-raw"):
+            out.extend(_folders_with(child, name, depth - 1))
+    return out
+
+
+def project_kind(path) -> str | None:
+    """``"easymocap"``, ``"anipose"``, ``"pose2sim"`` or None for a folder."""
+    path = Path(path)
+    if _child_file(path, "intri.yml", "intri.yaml") and _child_file(path, "extri.yml",
+                                                                     "extri.yaml"):
+        return "easymocap"
+    if _folders_with(path, "videos-raw"):
+        return "anipose"
+    if _folders_with(path, "videos"):
+        return "pose2sim"
+    return None
+
+
+# ---------------------------------------------------------------------- trials
+@dataclass
+class Trial:
+    """One trial of a project: its videos and the calibration file that applies."""
+
+    name: str
+    folder: Path
+    video_dir: Path
+    videos: dict[str, Path]  #: camera label → video file or image folder
+    calibration: Path | None
+    background_dir: Path | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def _nearest_calibration(folder: Path, top: Path, kind: str) -> Path | None:
+    """The calibration file nearest to ``folder``, looking up to ``top``'s parent.
+
+    At each level: anipose's ``calibration.toml``, then a ``calibration/`` folder (whose file is
+    :func:`find_calibration`'s; a ``calibration/`` folder without one is an error naming it).
+    """
+    stop = top.parent
+    current = folder
+    while True:
+        if kind == "anipose" and _child_file(current, "calibration.toml"):
+            return _child_file(current, "calibration.toml")
+        cal = _child_dir(current, "calibration")
+        if cal is not None:
+            if kind == "anipose" and _child_file(cal, "calibration.toml"):
+                return _child_file(cal, "calibration.toml")
+            return find_calibration(cal)
+        if current == stop or current.parent == current:
+            return None
+        current = current.parent
+
+
+def _read_config(folder: Path, top: Path) -> dict:
+    """The nearest ``Config.toml`` / ``config.toml`` (Pose2Sim / anipose) from folder up to top."""
+    from .toml import read_toml
+
+    current = folder
+    while True:
+        found = _child_file(current, "config.toml")
+        if found is not None:
+            return read_toml(found)
+        if current == top.parent or current.parent == current:
+            return {}
+        current = current.parent
+
+
+def _video_map(folder: Path) -> dict[str, Path]:
+    videos = find_videos(folder)
+    if not videos:
+        raise InputError(folder, "no video files (mp4, avi, mov …) or numbered-image folders here")
+    return videos
+
+
+class Project:
+    """A Pose2Sim, anipose or EasyMocap project folder.
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The project (or session, or trial) folder.
+    calibration : str or os.PathLike, optional
+        A calibration file to use for every trial instead of the one found in the project.
+
+    Attributes
+    ----------
+    kind : str
+        ``"pose2sim"``, ``"anipose"`` or ``"easymocap"``.
+    trials : dict of str to Trial
+        The trials, in natural order.
+    """
+
+    def __init__(self, root, calibration=None):
+        self.root = Path(root)
+        kind = project_kind(self.root)
+        if kind is None:
+            raise InputError(self.root, "not a Pose2Sim, anipose or EasyMocap project (no videos/, "
+                                        "videos-raw/ or intri.yml + extri.yml)")
+        self.kind = kind
+        self.calibration_override = None if calibration is None else Path(calibration)
+        if self.calibration_override is not None:
+            if not self.calibration_override.is_file():
+                raise InputError(self.calibration_override, "calibration file not found")
+            if calibration_format(self.calibration_override) is None:
+                raise InputError(self.calibration_override, "unknown calibration format "
+                                 "(expected a Pose2Sim/anipose .toml, a Qualisys .qca.txt or "
+                                 "EasyMocap intri.yml + extri.yml)")
+        self.config = _read_config(self.root, self.root)
+        self.trials = self._discover()
+        if not self.trials:
+            raise InputError(self.root, f"no trial found in this {kind} project")
+        self._rigs: dict[Path, tuple[Rig, set[str], list[str]]] = {}
+
+    # ------------------------------------------------------------------ discovery
+    def _discover(self) -> dict[str, Trial]:
+        trials: list[Trial] = []
+        if self.kind == "easymocap":
+            vdir = _child_dir(self.root, "videos") or _child_dir(self.root, "images")
+            if vdir is None:
+                raise InputError(self.root, "EasyMocap project without a videos/ or images/ folder")
+            trials.append(Trial(self.root.name, self.root, vdir, _video_map(vdir),
+                                _child_file(self.root, "intri.yml", "intri.yaml"),
+                                _child_dir(self.root, "background", "backgrounds")))
+        elif self.kind == "pose2sim":
+            for folder in _folders_with(self.root, "videos"):
+                vdir = _child_dir(folder, "videos")
+                trials.append(Trial(folder.name, folder, vdir, _video_map(vdir),
+                                    self._calibration_for(folder),
+                                    _child_dir(folder, "background", "backgrounds")
+                                    or _child_dir(self.root, "background", "backgrounds")))
+        else:
+            for session in _folders_with(self.root, "videos-raw"):
+                trials.extend(self._anipose_trials(session))
+        names = [t.name for t in trials]
+        for t in trials:
+            if names.count(t.name) > 1:  # the same name in two folders: prefix the folder's path
+                prefix = "_".join(t.folder.relative_to(self.root).parts)
+                if prefix:
+                    t.name = prefix if t.name == t.folder.name else f"{prefix}_{t.name}"
+        return {t.name: t for t in trials}
+
+    def _calibration_for(self, folder: Path) -> Path | None:
+        if self.calibration_override is not None:
+            return self.calibration_override
+        return _nearest_calibration(folder, self.root, self.kind)
+
+    def _anipose_trials(self, session: Path) -> list[Trial]:
+        vdir = _child_dir(session, "videos-raw")
+        videos = _video_map(vdir)
+        config = _read_config(session, self.root) or self.config
+        regex_text = (config.get("triangulation", {}) or {}).get("cam_regex", ANIPOSE_CAM_REGEX)
+        try:
+            regex = re.compile(regex_text)
+        except re.error as exc:
+            raise InputError("config.toml", f"cam_regex {regex_text!r} is not a regular "
+                                            f"expression ({exc})") from None
+        groups: dict[str, dict[str, Path]] = {}
+        for stem, path in videos.items():
+            m = regex.search(stem)
+            if m is None or not m.groups():
+                continue
+            trial = (stem[:m.start()] + stem[m.end():]).strip("-_ ") or session.name
+            groups.setdefault(trial, {})[m.group(1)] = path
+        background = _child_dir(session, "background", "backgrounds")
+        calibration = self._calibration_for(session)
+        if not groups:  # no name follows cam_regex: the folder is one trial, a video per camera
+            return [Trial(session.name, session, vdir, videos, calibration, background)]
+        return [Trial(name, session, vdir, dict(sorted(cams.items())), calibration, background)
+                for name, cams in sorted(groups.items(), key=lambda kv: natural_key(kv[0]))]
+
+    # ------------------------------------------------------------------ access
+    def trial(self, name: str | None = None) -> Trial:
+        """The trial called ``name`` (case-insensitive), or the only one."""
+        if name is None:
+            if len(self.trials) > 1:
+                raise InputError(self.root, f"{len(self.trials)} trials ({', '.join(self.trials)}): "
+                                            "choose one with --trial")
+            return next(iter(self.trials.values()))
+        for key, trial in self.trials.items():
+            if key.lower() == name.lower():
+                return trial
+        raise InputError(self.root, f"unknown trial {name!r} (have {', '.join(self.trials)})")
+
+    def units(self) -> str:
+        """Unit of TOML translations: Pose2Sim writes metres; anipose's is its board's (auto)."""
+        return "m" if self.kind == "pose2sim" else "auto"
+
+    def calibration(self, trial: Trial) -> tuple[Rig, set[str], list[str]]:
+        """The rig (mm), its unsized cameras and the notes of reading a trial's calibration."""
+        if trial.calibration is None:
+            raise InputError(trial.folder, "no calibration found (a calibration/ folder with a "
+                                           ".toml, .qca.txt or intri.yml + extri.yml)")
+        if trial.calibration not in self._rigs:
+            notes: list[str] = []
+            binning = 1.0
+            if calibration_format(trial.calibration) == "qualisys":
+                qualisys = (((self.config.get("calibration") or {}).get("convert") or {})
+                            .get("qualisys") or {})
+                binning = qualisys.get("binning_factor", 1)
+                if not isinstance(binning, (int, float)) or isinstance(binning, bool):
+                    raise InputError("Config.toml", "[calibration.convert.qualisys] "
+                                                    f"binning_factor must be a number, got {binning!r}")
+            rig, unsized = read_calibration_file(trial.calibration, units=self.units(),
+                                                 binning_factor=binning, notes=notes)
+            self._rigs[trial.calibration] = (rig, unsized, notes)
+        return self._rigs[trial.calibration]
+
+    def frame_rate_setting(self) -> float | None:
+        """Pose2Sim's ``[project] frame_rate`` when it is a number."""
+        value = (self.config.get("project") or {}).get("frame_rate")
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 \
+                and math.isfinite(value):
+            return float(value)
+        return None
+
+    def sequence(self, trial: str | None = None, cameras=None) -> ProjectSequence:
+        """Open one trial (see :class:`ProjectSequence`)."""
+        return ProjectSequence(self, self.trial(trial), cameras)
+
+
+class ProjectSequence(SynchronisedVideos):
+    """One trial of a project, with the interface the pipeline uses (see :mod:`.sequence`).
+
+    Parameters
+    ----------
+    project : Project
+    trial : Trial
+    cameras : iterable of str, optional
+        Calibration camera names to use (case-insensitive); default every camera.
+    """
+
+    def __init__(self, project: Project, trial: Trial, cameras=None):
+        self.project = project
+        self.trial_info = trial
+        self.dataset = project
+        self.subject = trial.name
+        self.name = trial.name
+        self.action, self.trial = trial.name, ""
+        self.problems: list[str] = []
+        rig, unsized, cal_notes = project.calibration(trial)
+        self.notes: list[str] = [*cal_notes, *trial.notes]
+        self._full_rig, self._unsized = rig, unsized
+        pairs, cams_left, vids_left = match_cameras(rig.names, list(trial.videos),
+                                                    notes=self.notes)
+        if cameras is not None:
+            wanted = [c.strip() for c in cameras if c.strip()]
+            if not wanted:
+                raise InputError("--cameras", "no camera names given")
+            selected = []
+            for c in wanted:
+                try:
+                    cam = rig[c].name
+                except KeyError:
+                    raise InputError("--cameras", f"unknown camera {c!r} (the calibration has "
+                                                  f"{', '.join(rig.names)})") from None
+                if cam not in pairs:
+                    raise InputError(trial.video_dir, f"no video of camera {cam} here (videos: "
+                                                      f"{', '.join(trial.videos)})")
+                selected.append(cam)
+            names = [n for n in rig.names if n in selected]
+        else:
+            if cams_left:
+                raise InputError(trial.video_dir, f"calibration camera {cams_left[0]} "
+                                 f"({trial.calibration.name}) has no video here (videos: "
+                                 f"{', '.join(trial.videos)}); use --cameras to leave it out")
+            if vids_left:
+                raise InputError(trial.videos[vids_left[0]], "no camera of the calibration "
+                                 f"{trial.calibration} matches this video (cameras: "
+                                 f"{', '.join(rig.names)})")
+            names = list(rig.names)
+        self.camera_names: list[str] = names
+        self.all_camera_names: list[str] = [n for n in rig.names if n in pairs]
+        self._video_paths = {n: trial.videos[pairs[n]] for n in names}
+        self.starts = {n: 1 for n in names}
+
+    # ------------------------------------------------------------------ videos and calibration
+    def video_path(self, camera: str) -> Path:
+        """The camera's video file or image folder."""
+        return self._video_paths[self.rig[camera].name]
+
+    @cached_property
+    def _streams(self) -> dict[str, VideoStream]:
+        return {cam: VideoStream(self._video_paths[cam], gray=False) for cam in self.camera_names}
+
+    @cached_property
+    def rig(self) -> Rig:
+        """The cameras used, each with its video's image size (``project_checks.reconcile_size``)."""
+        cameras = []
+        for name in self.camera_names:
+            stream = self._streams[name]
+            cameras.append(reconcile_size(self._full_rig[name], stream.frame_size(), stream.path,
+                                          unsized=name in self._unsized, notes=self.notes))
+        self.notes.extend(world_frame_notes(cameras))
+        counts = self.video_frame_counts()
+        if len(set(counts.values())) > 1:
+            self.notes.append("the videos have different lengths ("
+                              + ", ".join(f"{c} {n}" for c, n in counts.items())
+                              + f"): taken as starting together, the first {min(counts.values())} "
+                                "frames are used")
+        _ = self.frame_rate  # its assumptions are notes too: all of them exist once the rig does
+        return Rig(cameras)
+
+    def check_video_sizes(self) -> None:
+        """Decode each camera's first frame and reconcile its size with the calibration's."""
+        _ = self.rig
+
+    @cached_property
+    def frame_rate(self) -> float:
+        """Frames per second of the videos (they must agree), else the project's, else 30 Hz."""
+        rates = {cam: s.fps for cam, s in self._streams.items() if s.fps is not None}
+        if rates:
+            first_cam, first = next(iter(rates.items()))
+            for cam, fps in rates.items():
+                if abs(fps - first) > 1e-3 * first:
+                    raise InputError(self._streams[cam].path,
+                                     f"frame rate {fps:g} Hz differs from {first_cam}'s {first:g} "
+                                     "Hz: the videos must be synchronised frame by frame")
+            return first
+        setting = self.project.frame_rate_setting()
+        if setting is not None:
+            self.notes.append(f"frame rate {setting:g} Hz from the project's Config.toml")
+            return setting
+        self.notes.append(f"no video states a frame rate: {DEFAULT_FRAME_RATE:g} Hz assumed")
+        return DEFAULT_FRAME_RATE
+
+    # ------------------------------------------------------------------ backgrounds
+    def background_paths(self, camera: str) -> list[Path]:
+        """Empty-scene videos of a camera from the trial's ``background/`` folder (may be empty)."""
+        folder = self.trial_info.background_dir
+        if folder is None:
+            return []
+        videos = find_videos(folder)
+        pairs, _, _ = match_cameras([self.rig[camera].name], list(videos), notes=[])
+        if not pairs and len(videos) == len(self._full_rig.names):  # natural order, as videos
+            order = sorted(self._full_rig.names, key=natural_key)
+            return [list(videos.values())[order.index(self.rig[camera].name)]]
+        return [videos[v] for v in pairs.values()]
+
+    def check_backgrounds(self) -> None:
+        """Open every background video and check its frame size against the camera's."""
+        for cam in self.camera_names:
+            for path in self.background_paths(cam):
+                w, h = VideoStream(path, gray=False).frame_size()
+                if (w, h) != tuple(self.rig[cam].size):
+                    raise InputError(path, f"frame size {w}x{h} differs from the video's "
+                                           f"{self.rig[cam].size[0]}x{self.rig[cam].size[1]}")
+
+    def background_sets(self, camera: str, *, max_frames: int | None = None
+                        ) -> list[list[np.ndarray]]:
+        """Per background video of a camera, its first ``max_frames`` frames (a list each)."""
+        out = []
+        for path in self.background_paths(camera):
+            stream = VideoStream(path, gray=False)
+            n = stream.n_frames if max_frames is None else min(max_frames, stream.n_frames)
+            out.append([image for _, image in stream.read(range(n))])
+        return out
+
+    def background_frames(self, camera: str, *, max_frames: int | None = None):
+        """Frames of all background videos of a camera, one after the other."""
+        for frames in self.background_sets(camera, max_frames=max_frames):
+            yield from frames
+
+    # ------------------------------------------------------------------ no ground truth
+    ground_truth_path = None
+    ground_truth_source = None
+    body_file = None
+
+    def ground_truth(self):
+        """None: a project holds no ground truth."""
+        return None
+
+    def describe(self) -> list[str]:
+        """Lines for ``voxelmocap info`` (reads the calibration and decodes a frame per camera)."""
+        rig = self.rig
+        fps = self.frame_rate
+        counts = self.video_frame_counts()
+        lines = [f"    {self.name}: {self.n_frames} frames at {fps:g} Hz, cameras "
+                 f"{', '.join(self.camera_names)}",
+                 f"      calibration {self.trial_info.calibration}"]
+        for cam in self.camera_names:
+            w, h = rig[cam].size
+            c = rig[cam].center
+            lines.append(f"      {cam:<6s} {w}x{h}  frames {counts[cam]:>6d}  "
+                         f"video {self._video_paths[cam].name}  centre ({c[0]:.0f}, {c[1]:.0f}, "
+                         f"{c[2]:.0f}) mm  backgrounds {len(self.background_paths(cam))}")
+        lines.extend(f"      note: {note}" for note in self.notes)
+        return lines
+
+    def __repr__(self) -> str:
+        return (f"ProjectSequence({self.project.kind}: {self.name}, "
+                f"cameras={','.join(self.camera_names)})")
