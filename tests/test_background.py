@@ -259,3 +259,32 @@ def test_auto_grid_encloses_a_body_with_extended_limbs():
     assert grid.low[0] <= pts[:, 0].min() - 200 + 50
     assert grid.low[2] == 0.0
     assert grid.n_voxels < 0.5 * VoxelGrid((-1500, -1500, 0), 20.0, (150, 150, 125)).n_voxels
+
+
+def test_runner_learns_the_plate_and_places_the_grid_without_background_videos(tmp_path):
+    """A HumanEva-layout sequence without Background/: plate from the sequence, grid around
+    the person, one hole tolerated with four cameras, the person's component only."""
+    import shutil
+
+    from voxelmocap.config import TrackConfig
+    from voxelmocap.io.humaneva import Dataset
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.synth import generate
+
+    root = generate(tmp_path / "data", motion="walk", frames=24, fps=8, cameras=["C1", "C2",
+                    "C3", "BW1"], progress=False, background_frames=2, seed=5)
+    shutil.rmtree(root / "Background")
+    seq = Dataset(root).sequence("S1", "Walking_1")
+    said = []
+    runner = MeasurementRunner(seq, TrackConfig(), log=said.append)
+    assert runner.learnt_plate and runner.holes == 1 and runner.person_only
+    assert any("background plate learnt from" in s for s in said)
+    assert any("grid placed around the person" in s for s in said)
+    gt = seq.ground_truth()
+    pts = gt.endpoints.reshape(-1, 3)
+    assert np.all(pts >= runner.grid.low) and np.all(pts <= runner.grid.high)
+    # the person is measured where the ground truth says
+    number, obs = next(runner.observations([12]))
+    centre = runner.grid.centre_of(np.argwhere(obs.occupancy)).mean(axis=0)
+    pelvis = gt.endpoints[list(gt.frames).index(12)].mean(axis=0)
+    assert np.linalg.norm(centre[:2] - pelvis[:2]) < 150

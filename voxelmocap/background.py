@@ -395,7 +395,6 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                                     for f in full[cam.name]])
         small_cams.append(downscale_camera(cam, size))
     carver = Carver(small_cams, grid)
-    voxel_px = {c.name: _voxel_radius_px(c, grid) for c in small_cams}
 
     plates = {n: plate_from_frames(small[n], config, unstable=False) for n in names}
     covered = {n: np.zeros(small[n].shape[:3], bool) for n in names}
@@ -415,7 +414,7 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                                          max(config.min_area // 4, 8))
                 masks.append(raw)
             person = person_component(carver.carve_with_holes(masks, holes))
-            person_frames.append(person)
+            person_frames.append((person, masks))
             volumes[f] = person.sum()
         # the typical person: the median over the frames where one was found (a few frames
         # with a background person or a ghost glued on must not set the scale)
@@ -429,8 +428,8 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
         for c, cam in enumerate(small_cams):
             cov = covered[cam.name]
             for f in range(n_frames):
-                cov[f] = True if vanished[f] else _cover(person_frames[f], carver, c,
-                                                         voxel_px[cam.name])
+                person, masks = person_frames[f]
+                cov[f] = True if vanished[f] else _cover(person, carver, c, masks[c])
             old = plates[cam.name]
             new = plate_from_frames(small[cam.name], config, keep=~cov, unstable=False)
             # A pixel covered in every frame keeps its previous estimate while learning (the
@@ -489,17 +488,8 @@ def _clean(mask: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
                       min_area=max(config.min_area // 4, 8), fill_holes=True)
 
 
-def _voxel_radius_px(camera, grid) -> float:
-    """Largest projected half-diagonal (pixels) of a voxel over the grid's corners."""
-    lo, hi = grid.low, grid.high
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                        for z in (lo[2], hi[2])])
-    depth = (corners @ np.asarray(camera.R).T + np.asarray(camera.T))[:, 2]
-    depth = max(float(depth[depth > 0].min()) if (depth > 0).any() else 1000.0, 500.0)
-    return float(max(camera.fc) * grid.voxel_size * 0.87 / depth)
-
-
-def _cover(person: np.ndarray, carver: Carver, c: int, radius: float) -> np.ndarray:
+def _cover(person: np.ndarray, carver: Carver, c: int,
+           seen: np.ndarray | None = None) -> np.ndarray:
     """Pixels of camera ``c`` covered by the person.
 
     The pixels of its voxels, dilated by a voxel's footprint and a margin, then closed with a
@@ -521,8 +511,15 @@ def _cover(person: np.ndarray, carver: Carver, c: int, radius: float) -> np.ndar
         return out.astype(bool)
     rows = idx // w
     out.reshape(-1)[idx] = 1
-    r = int(np.ceil(radius)) + 3
+    # a voxel's footprint: its half-diagonal at the person's depth
+    grid = carver.grid
+    centre = grid.centre_of(np.argwhere(person).mean(axis=0))
+    depth = max(float((np.asarray(cam.R) @ centre + np.asarray(cam.T))[2]), grid.voxel_size)
+    r = int(np.ceil(max(cam.fc) * grid.voxel_size * 0.87 / depth)) + 2
     out = cv2.dilate(out, _disk(r))
+    if seen is not None:
+        # the carve of a few views is fatter than the person: keep what this view saw, near
+        out &= cv2.dilate(seen.astype(np.uint8), _disk(2 * r))
     close = int(COVER_CLOSING * (rows.max() - rows.min() + 2 * r))
     if close > 0:
         pad = close + 1

@@ -125,6 +125,7 @@ class MeasurementRunner(MeasurementStage):
         self.log = log
         self.empty_frames: list[int] = []
         self.excluded_frames: dict[str, list[int]] = {}
+        self._said_no_voxel = False
         silhouette = mc.silhouette
         rig = seq.rig
         for key in ("camera_risk", "camera_var_threshold"):
@@ -253,6 +254,13 @@ class MeasurementRunner(MeasurementStage):
                           "this and any later such frame")
             if frame is not None:
                 seen.append(int(frame))
+        if not obs.empty and not obs.occupancy.any() and not self._said_no_voxel:
+            self._said_no_voxel = True
+            how = ("the background plate learnt from the sequence" if self.learnt_plate
+                   else "the background model")
+            self._say(f"{where}: the silhouettes carve into no voxel: the cameras disagree "
+                      f"about the person; check {how} (e.g. with 'dump --masks') and the "
+                      "calibration")
         if obs.empty:
             if not self.empty_frames:
                 self._say(f"{where}: every silhouette is empty (no person in view), the "
