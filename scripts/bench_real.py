@@ -235,7 +235,10 @@ def overlays(args) -> None:
         img = overlay_all(images, list(seq.rig), model, result.state[i], result.landmarks[i],
                           caption=f"frame {int(number)}", max_width=args.width)
         out = args.out / f"pose2sim_demo_overlay_{int(number):03d}.png"
-        cv2.imwrite(str(out), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
+        from PIL import Image
+
+        # a 64-colour palette keeps each PNG near 100 kB (the docs hold five)
+        Image.fromarray(img[:, :, ::-1]).quantize(64).save(out, optimize=True)
         print(out, f"{out.stat().st_size / 1024:.0f} kB")
 
 

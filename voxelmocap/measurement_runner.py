@@ -36,6 +36,9 @@ COARSE_HEIGHT_MM = 2500.0
 COARSE_PROBE_MM = 1000.0
 #: … grown by this much (mm) for limbs reaching beyond it.
 COARSE_MARGIN_MM = 500.0
+#: A sampled frame whose person box has more than this many times the median floor area is
+#: left out of the grid placement.
+OUTLIER_BOX = 2.0
 #: Frames sampled to place the grid when no plate is learnt.
 GRID_FRAMES = 20
 
@@ -67,15 +70,23 @@ def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxe
     from .grid import VoxelGrid
 
     coarse = stage.grid
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
     n = len(next(iter(samples.values())))
+    boxes = []
     for f in range(n):
         obs = stage.measure({c: samples[c][f] for c in stage.names})
         ijk = np.argwhere(obs.occupancy)
         if len(ijk):
-            lo = np.minimum(lo, coarse.low + ijk.min(axis=0) * coarse.voxel_size)
-            hi = np.maximum(hi, coarse.low + (ijk.max(axis=0) + 1) * coarse.voxel_size)
+            boxes.append((coarse.low + ijk.min(axis=0) * coarse.voxel_size,
+                          coarse.low + (ijk.max(axis=0) + 1) * coarse.voxel_size))
+    if boxes:
+        # a frame whose "person" box is far wider than the typical one carved something else
+        # along (a background person touching it, a ghost): it does not move the grid
+        size = np.array([np.prod((h - lo_)[:2]) for lo_, h in boxes])
+        keep = size <= OUTLIER_BOX * np.median(size)
+        lo = np.min([b[0] for b, k in zip(boxes, keep, strict=True) if k], axis=0)
+        hi = np.max([b[1] for b, k in zip(boxes, keep, strict=True) if k], axis=0)
+    else:
+        lo = np.full(3, np.inf)
     if not np.all(np.isfinite(lo)):
         raise InputError("grid", f"no person found in {n} frames sampled over the sequence: "
                                  "cannot place the grid around the person; check the background "
