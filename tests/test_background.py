@@ -284,7 +284,7 @@ def test_runner_learns_the_plate_and_places_the_grid_without_background_videos(t
     pts = gt.endpoints.reshape(-1, 3)
     assert np.all(pts >= runner.grid.low) and np.all(pts <= runner.grid.high)
     # the person is measured where the ground truth says
-    number, obs = next(runner.observations([12]))
+    _, obs = next(runner.observations([12]))
     centre = runner.grid.centre_of(np.argwhere(obs.occupancy)).mean(axis=0)
     pelvis = gt.endpoints[list(gt.frames).index(12)].mean(axis=0)
     assert np.linalg.norm(centre[:2] - pelvis[:2]) < 150

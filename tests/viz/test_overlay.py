@@ -172,7 +172,7 @@ def test_mosaic_has_one_panel_per_camera_in_order():
 def test_overlay_all_cameras_draws_the_landmarks_in_every_panel(tmp_path, capsys):
     from voxelmocap.cli import main
 
-    data, run, cam, result = _tracked_run(tmp_path)
+    data, run, _, _ = _tracked_run(tmp_path)
     out = tmp_path / "all.avi"
     assert main(["overlay", str(run), "--dataset", str(data), "--camera", "all", "--out",
                  str(out), "--fps", "12"]) == 0
