@@ -136,7 +136,7 @@ def test_track_bad_input_is_one_line(walk_dataset, finished_run, tmp_path, capsy
 # 8 frames of a slow walk are too few for MOG2 to separate the person from the room (on a 60-frame
 # walk the fallback tracks at μ ≈ 160 mm); this checks the mechanism, not the masks.
 @pytest.mark.filterwarnings("ignore::voxelmocap.carving.EmptySilhouetteWarning")
-def test_without_background_videos_falls_back_to_mog2(walk_dataset, tmp_path):
+def test_without_background_videos_learns_the_plate_or_uses_mog2(walk_dataset, tmp_path):
     import shutil
 
     data = tmp_path / "data"
@@ -146,8 +146,15 @@ def test_without_background_videos_falls_back_to_mog2(walk_dataset, tmp_path):
                              config=with_overrides(SMALL, **{"filter.layers": 1,
                                                              "filter.particles": 20}),
                              progress=False, log=messages.append)
-    assert any("using MOG2" in m for m in messages)
+    assert any("background plate learnt from" in m for m in messages)
     assert len(read_result(outcome.result_path)) == 2
+    # MOG2 learnt from the sequence, when asked for
+    messages = []
+    track_sequence(data, "S1", "Walking_1", tmp_path / "run2", frames="1:2",
+                   config=with_overrides(SMALL, **{"filter.layers": 1, "filter.particles": 20,
+                                                   "measurement.silhouette.method": "mog2"}),
+                   progress=False, log=messages.append)
+    assert any("using MOG2" in m for m in messages)
 
 
 def test_frame_rate_comes_from_the_data(tmp_path):

@@ -270,6 +270,35 @@ class Carver:
         return out.reshape(self.grid.shape)
 
 
+    def carve_with_holes(self, masks, holes: int = 1, *, ignore=()) -> np.ndarray:
+        """Occupancy tolerating ``holes`` silhouettes that miss an occupied voxel.
+
+        A voxel is occupied when at least ``holes + 2`` cameras see it and at most ``holes`` of
+        them have it outside their silhouette. With four or more cameras and ``holes = 1``, a
+        segmentation hole in one view (dark clothing on a dark floor) no longer cuts the body,
+        while every voxel still needs three agreeing views.
+
+        Parameters
+        ----------
+        masks : (N_C, H, W) array_like of bool, or a sequence of (H_c, W_c) masks
+            Silhouettes in camera order.
+        holes : int
+            Silhouettes allowed to miss a voxel, >= 0 (0: every camera that sees it, and at
+            least two of them).
+        ignore : sequence of int
+            Cameras left out (they neither see nor vote).
+
+        Returns
+        -------
+        (nx, ny, nz) bool ndarray
+        """
+        seen, inside = self.counts(masks)
+        seen = seen.astype(np.int16)
+        for c in ignore:
+            seen -= (self.tables[c] >= 0).reshape(self.grid.shape)
+        return (seen >= int(holes) + 2) & (inside.astype(np.int16) >= seen - int(holes))
+
+
 def _cached_carver(cameras: list, grid: VoxelGrid) -> Carver:
     # Cameras are immutable and compared by identity, so the key holds them (and keeps them alive).
     key = (grid, *cameras)

@@ -71,7 +71,10 @@ class SilhouetteConfig:
 
     #: ``gaussian``: the HumanEva toolkit's per-pixel Gaussians learnt from background videos;
     #: ``mog2``: OpenCV's adaptive mixture (Zivkovic), learnt from background frames and online
-    method: str = _choice("gaussian", "mog2", default="gaussian")
+    #: ``plate``: a static plate with per-pixel noise (:mod:`voxelmocap.background`), from the
+    #: background videos or, without them, learnt from the sequence itself (also what
+    #: ``gaussian`` falls back to when a camera has no background video)
+    method: str = _choice("gaussian", "mog2", "plate", default="gaussian")
     #: Gaussian model: foreground iff background likelihood < 1 / (256^C · risk); larger = fewer
     #: foreground pixels. The toolkit suggests 1 (colour), up to 1e60–1e100 for S1's noisy BW
     #: cameras (on its 0–1 intensity scale)
@@ -101,6 +104,29 @@ class SilhouetteConfig:
     min_area: int = 50  #: remove 4-connected blobs smaller than this (pixels; toolkit: 10)
     largest_only: bool = False  #: keep only the largest 8-connected component (``one_comp``)
     fill_holes: bool = False  #: fill background regions enclosed by the silhouette
+    #: ``plate``: probability that noise alone makes a pixel foreground; the threshold is the χ²
+    #: quantile (C degrees of freedom) of the distance in units of each pixel's own noise σ,
+    #: measured from the plate's frames (compression noise differs per camera and per pixel)
+    false_alarm: float = 1e-4
+    #: learnt plate: frames sampled over the sequence (spread evenly) to learn it from
+    plate_frames: int = 60
+    #: learnt plate: carve / project / re-estimate passes at most (they stop when stable)
+    plate_iterations: int = 3
+    #: learnt plate: a blob whose outline is this many times stronger an edge in the plate than
+    #: in the frame is a ghost (the plate holds the person there); 0 = no ghost test
+    plate_ghost_ratio: float = 1.5
+    #: learnt plate: a frame whose person is below this share of the typical volume has the
+    #: person inside the plate (absorbed); it covers its whole image while the plate is learnt
+    plate_vanish_share: float = 0.3
+    #: learnt plate: fewest uncovered frames a pixel needs for its background to be known
+    plate_min_seen: int = 1
+    #: learnt plate: largest share of an image whose background is never seen (the person is
+    #: there in every frame) before the plate is refused; those pixels count as foreground
+    plate_max_unknown: float = 0.4
+    #: learnt plate: a pixel whose background samples spread (robust σ) beyond this many times
+    #: the camera's noise is no background (a person who never left it, a moving object): it
+    #: counts as foreground, and no pixel's noise σ is taken above this multiple
+    plate_unstable: float = 4.0
 
     def __post_init__(self):
         _validate(self, "measurement.silhouette", "SilhouetteConfig")
@@ -131,6 +157,25 @@ class MeasurementConfig:
     background_frames: int = 200  #: background-video frames per camera used to learn the model
     #: background model, thresholds (per camera too) and clean-up
     silhouette: SilhouetteConfig = field(default_factory=SilhouetteConfig)
+    #: where the grid goes when ``grid_origin`` is not given: ``rig``, the floor box every
+    #: camera sees; ``person``, the box around the person found by a coarse carve of the area
+    #: two or more cameras see (sampled frames), grown by ``grid_margin``; ``auto``, ``person``
+    #: when the background is learnt from the sequence (a real recording), else ``rig``
+    grid_placement: str = _choice("auto", "rig", "person", default="auto")
+    #: ``person`` placement: margin (mm) around the person's box over the sampled frames, for
+    #: limbs stretched further in frames not sampled (the Pose2Sim demo's leg and arm reached
+    #: ~340 mm beyond the all-camera box)
+    grid_margin: float = 400.0
+    #: silhouettes that may miss an occupied voxel (segmentation holes), ``min_views`` unset:
+    #: occupied when ≥ holes + 2 cameras see it and ≤ holes of them miss it. None: 1 when the
+    #: background is learnt from the sequence and there are four or more cameras, else 0
+    carve_holes: int | None = None
+    #: keep only the largest 3D component of every frame (a 2D blob of a background person or
+    #: a ghost that carves into a separate piece is not the person). None: on when the
+    #: background is learnt from the sequence
+    person_only: bool | None = None
+    #: voxel edge (mm) of the coarse carves that learn the plate and place the grid
+    coarse_voxel_size: float = 50.0
 
 
 @dataclass(frozen=True)
@@ -527,6 +572,12 @@ def _check_measurement(obj: MeasurementConfig, prefix: str, source) -> None:
     if (obj.grid_origin is None) != (obj.grid_shape is None):
         raise InputError(source, f"keys '{prefix}.grid_origin' and '{prefix}.grid_shape' go "
                                  "together")
+    if obj.grid_margin < 0:
+        bad("grid_margin", ">= 0")
+    if obj.carve_holes is not None and obj.carve_holes < 0:
+        bad("carve_holes", ">= 0")
+    if not low <= obj.coarse_voxel_size <= high:
+        bad("coarse_voxel_size", f"between {low:g} and {high:g} mm, got {obj.coarse_voxel_size:g}")
     if obj.grid_shape is not None and min(obj.grid_shape) < MIN_VOXELS_PER_AXIS:
         bad("grid_shape", f"at least {MIN_VOXELS_PER_AXIS} voxels along every axis, got "
                           f"{list(obj.grid_shape)}")
@@ -557,6 +608,18 @@ def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
             bad(name, ">= 0")
     if obj.mog2_history < 1:
         bad("mog2_history", ">= 1")
+    if not 0 < obj.false_alarm < 0.5:
+        bad("false_alarm", "between 0 and 0.5 (exclusive)")
+    for name in ("plate_frames", "plate_iterations", "plate_min_seen"):
+        if getattr(obj, name) < 1:
+            bad(name, ">= 1")
+    if not obj.plate_unstable > 1:
+        bad("plate_unstable", "> 1")
+    if obj.plate_ghost_ratio < 0:
+        bad("plate_ghost_ratio", ">= 0")
+    for name in ("plate_vanish_share", "plate_max_unknown"):
+        if not 0 <= getattr(obj, name) <= 1:
+            bad(name, "between 0 and 1")
 
 
 def _check_cues(obj: CuesConfig, prefix: str, source) -> None:

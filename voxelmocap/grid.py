@@ -105,7 +105,8 @@ class VoxelGrid:
     @classmethod
     def from_rig(cls, rig, voxel_size: float = 20.0, *, height: float = 2200.0,
                  min_views: int | None = None, margin: float = 0.0, step: float = 50.0,
-                 bytes_per_voxel: float | None = None) -> VoxelGrid:
+                 bytes_per_voxel: float | None = None,
+                 probe_height: float | None = None) -> VoxelGrid:
         """The floor-standing box seen by the cameras of ``rig``.
 
         The floor (Z = 0) is sampled on a square lattice of pitch ``step`` around the cameras; a
@@ -134,6 +135,11 @@ class VoxelGrid:
             Pitch of the floor lattice (mm).
         bytes_per_voxel : float, optional
             When given, :meth:`check_memory` is applied with this per-voxel cost.
+        probe_height : float, optional
+            Height (mm) of the upper point that must be seen with each floor point (default
+            ``height``). Cameras mounted below ``height`` and tilted down see little at head-room
+            height: a lower probe (e.g. 1000 mm) gives the floor area where a person's body is
+            seen, which the coarse carve that places the grid around the person needs.
 
         Raises
         ------
@@ -159,7 +165,8 @@ class VoxelGrid:
         ys = mid[1] - half + step * np.arange(n)
         gx, gy = np.meshgrid(xs, ys, indexing="ij")
         floor = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
-        top = floor + np.array([0.0, 0.0, float(height)])
+        top = floor + np.array([0.0, 0.0, float(height if probe_height is None
+                                                 else probe_height)])
         # the carver's visibility rule: in front, inside the trusted field of view (the lens
         # polynomial folds far off-axis points back into the image), rounding into the image
         views = np.zeros(len(floor), dtype=np.int32)

@@ -16,7 +16,10 @@ from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["ViewOutcome", "overlay_video", "view_dump", "view_png_path"]
+__all__ = ["ALL_CAMERAS", "ViewOutcome", "overlay_video", "view_dump", "view_png_path"]
+
+#: The ``camera`` value of :func:`overlay_video` that draws every camera side by side.
+ALL_CAMERAS = "all"
 
 
 def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | None = None,
@@ -31,7 +34,8 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
     dataset_root : str or os.PathLike
         The data set that was tracked.
     camera : str
-        Camera name.
+        Camera name, or ``"all"``: every camera of the sequence side by side in one video
+        (:func:`voxelmocap.viz.overlay.overlay_all`).
     subject, sequence : str, optional
         Which result (needed when the run holds more than one).
     out : str or os.PathLike, optional
@@ -59,7 +63,7 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
     from .io.video_writer import VideoWriter, check_video_path
     from .joints import endpoints_to_landmarks
     from .pipeline import body_model_for
-    from .viz.overlay import overlay_frame
+    from .viz.overlay import overlay_all, overlay_frame
 
     if out is not None:
         check_video_path(out, fps)  # before reading anything
@@ -71,13 +75,22 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
                                   "--subject and --sequence")
     path = files[0]
     result = read_result(path)
-    seq = open_sequence(dataset_root, path.parent.name, path.stem, cameras=[camera])
-    cam = seq.rig[camera]
+    every = camera.lower() == ALL_CAMERAS
+    seq = open_sequence(dataset_root, path.parent.name, path.stem,
+                        cameras=None if every else [camera])
+    cam = None if every else seq.rig[camera]
     gt = seq.ground_truth()
     model, _ = body_model_for(seq, gt)
-    out = Path(out) if out is not None else path.with_name(f"{path.stem}_({cam.name})_overlay.mp4")
+    label = "all" if every else cam.name
+    out = Path(out) if out is not None else path.with_name(f"{path.stem}_({label})_overlay.mp4")
     rows = {int(f): i for i, f in enumerate(result.frames)}
-    with VideoWriter(out, fps, cam.size) as video:  # refuses an unwritable output first
+    if every:
+        first = next(iter(seq.frames(result.frames[:1])))[1]
+        size = overlay_all(first, list(seq.rig), model, result.state[0],
+                           result.landmarks[0]).shape[1::-1]
+    else:
+        size = cam.size
+    with VideoWriter(out, fps, size) as video:  # refuses an unwritable output first
         bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -91,10 +104,15 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
                     g = int(gt.index_of([frame])[0])
                     if g >= 0:
                         truth = endpoints_to_landmarks(gt.endpoints[g])
-                video.write(overlay_frame(images[cam.name], cam, model, result.state[i],
-                                          result.landmarks[i], truth=truth,
-                                          caption=f"{seq.subject} {seq.name} {cam.name} "
-                                                  f"F={frame}"))
+                if every:
+                    video.write(overlay_all(images, list(seq.rig), model, result.state[i],
+                                            result.landmarks[i], truth=truth,
+                                            caption=f"{seq.subject} {seq.name} F={frame}"))
+                else:
+                    video.write(overlay_frame(images[cam.name], cam, model, result.state[i],
+                                              result.landmarks[i], truth=truth,
+                                              caption=f"{seq.subject} {seq.name} {cam.name} "
+                                                      f"F={frame}"))
                 if bar is not None:
                     bar.update(1)
         finally:

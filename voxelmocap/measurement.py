@@ -97,7 +97,8 @@ class MeasurementStage:
     """
 
     def __init__(self, rig, grid: VoxelGrid, backgrounds: Mapping, config: SilhouetteConfig | None
-                 = None, *, min_views: int | None = None, sigma: float = 1.0):
+                 = None, *, min_views: int | None = None, sigma: float = 1.0, holes: int = 0,
+                 person_only: bool = False):
         self.cameras = list(rig)
         self.names = [c.name for c in self.cameras]
         missing = [n for n in self.names if n not in backgrounds]
@@ -115,6 +116,11 @@ class MeasurementStage:
         self.config = config or SilhouetteConfig()
         self.min_views = None if min_views is None else int(min_views)
         self.sigma = float(sigma)
+        if isinstance(holes, bool) or holes != int(holes) or not 0 <= holes < max(n_cam - 1, 1):
+            raise InputError("holes", f"must be an integer between 0 and {max(n_cam - 2, 0)}, "
+                                      f"got {holes!r}")
+        self.holes = int(holes)
+        self.person_only = bool(person_only)
         self.carver = Carver(self.cameras, grid)
 
     def masks(self, images: Mapping) -> np.ndarray:
@@ -164,8 +170,21 @@ class MeasurementStage:
         use = [n not in excluded for n in self.names]
         if not any(m.any() for m, u in zip(masks, use, strict=True) if u):
             return np.zeros(self.grid.shape, dtype=bool), True
+        if self.holes and self.min_views is None:
+            occ = self.carver.carve_with_holes(
+                [m if u else np.zeros(m.shape, bool) for m, u in zip(masks, use, strict=True)],
+                self.holes, ignore=[i for i, u in enumerate(use) if not u])
+        else:
+            occ = self._carve_rule(masks, use, excluded)
+        if self.person_only:
+            from .background import person_component
+
+            occ = person_component(occ)
+        return occ, False
+
+    def _carve_rule(self, masks, use, excluded) -> np.ndarray:
         if not excluded:
-            return self.carver.carve(masks, min_views=self.min_views), False
+            return self.carver.carve(masks, min_views=self.min_views)
         # An excluded camera votes for nothing under min_views (an empty mask) and vetoes nothing
         # under the every-view rule (a full mask); voxels that only it sees are then dropped.
         fill = self.min_views is None
@@ -174,7 +193,7 @@ class MeasurementStage:
         if fill:
             seen = (self.carver.tables[np.flatnonzero(use)] >= 0).any(axis=0)
             occ &= seen.reshape(self.grid.shape)
-        return occ, False
+        return occ
 
     def measure(self, images: Mapping) -> VoxelObservation:
         """The observation of one frame: silhouettes, occupancy, surface maps and timings.

@@ -16,7 +16,6 @@ Only this module, :mod:`voxelmocap.pipeline`, :mod:`voxelmocap.io` and the comma
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import time
 from collections.abc import Iterable, Iterator, Mapping
@@ -31,7 +30,77 @@ from .logs import emit
 from .measurement import MeasurementStage
 from .observation import VoxelObservation
 
-__all__ = ["DumpOutcome", "MeasurementRunner", "dump_sequence"]
+__all__ = ["DumpOutcome", "MeasurementRunner", "dump_sequence", "person_grid"]
+
+#: Top (mm) of the coarse box carved to learn a plate or place the grid: a raised hand.
+COARSE_HEIGHT_MM = 2500.0
+#: The coarse box covers the floor area three cameras see at floor and waist height (this probe)…
+COARSE_PROBE_MM = 1000.0
+#: … grown by this much (mm) for limbs reaching beyond it.
+COARSE_MARGIN_MM = 500.0
+#: A sampled frame whose person box has more than this many times the median floor area is
+#: left out of the grid placement.
+OUTLIER_BOX = 2.0
+#: Frames sampled to place the grid when no plate is learnt.
+GRID_FRAMES = 20
+
+
+def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxel_size: float,
+                *, margin: float, bytes_per_voxel: float | None = None):
+    """The grid around the person: the box of the person's voxels over sampled frames.
+
+    Parameters
+    ----------
+    stage : MeasurementStage
+        A stage on a coarse grid (its ``person_only`` keeps the largest component per frame).
+    samples : mapping of str to (F, H, W, C) uint8 ndarray
+        Sampled frames per camera.
+    voxel_size : float
+        Voxel edge of the grid returned (mm).
+    margin : float
+        Grows the box on every side (mm); the floor side stops at the coarse grid's floor.
+
+    Returns
+    -------
+    VoxelGrid
+
+    Raises
+    ------
+    InputError
+        When no frame holds a person.
+    """
+    from .grid import VoxelGrid
+
+    coarse = stage.grid
+    n = len(next(iter(samples.values())))
+    boxes = []
+    for f in range(n):
+        obs = stage.measure({c: samples[c][f] for c in stage.names})
+        ijk = np.argwhere(obs.occupancy)
+        if len(ijk):
+            boxes.append((coarse.low + ijk.min(axis=0) * coarse.voxel_size,
+                          coarse.low + (ijk.max(axis=0) + 1) * coarse.voxel_size))
+    if boxes:
+        # a frame whose "person" box is far wider than the typical one carved something else
+        # along (a background person touching it, a ghost): it does not move the grid
+        size = np.array([np.prod((h - lo_)[:2]) for lo_, h in boxes])
+        keep = size <= OUTLIER_BOX * np.median(size)
+        lo = np.min([b[0] for b, k in zip(boxes, keep, strict=True) if k], axis=0)
+        hi = np.max([b[1] for b, k in zip(boxes, keep, strict=True) if k], axis=0)
+    else:
+        lo = np.full(3, np.inf)
+    if not np.all(np.isfinite(lo)):
+        raise InputError("grid", f"no person found in {n} frames sampled over the sequence: "
+                                 "cannot place the grid around the person; check the background "
+                                 "or give measurement.grid_origin and grid_shape")
+    low = np.maximum(lo - margin, coarse.low)
+    low[2] = coarse.low[2]                       # the floor
+    high = hi + margin
+    low[:2] = np.floor(low[:2] / voxel_size) * voxel_size
+    grid = VoxelGrid.from_bounds(low, high, voxel_size)
+    if bytes_per_voxel is not None:
+        grid.check_memory(bytes_per_voxel, what="the measurement volumes")
+    return grid
 
 logger = logging.getLogger(__name__)
 
@@ -63,6 +132,7 @@ class MeasurementRunner(MeasurementStage):
     """
 
     def __init__(self, seq, config: TrackConfig, log=None):
+        from .background import learn_plates, plate_from_frames
         from .grid import VoxelGrid
         from .silhouette import build_backgrounds
 
@@ -71,6 +141,7 @@ class MeasurementRunner(MeasurementStage):
         self.log = log
         self.empty_frames: list[int] = []
         self.excluded_frames: dict[str, list[int]] = {}
+        self._said_no_voxel = False
         silhouette = mc.silhouette
         rig = seq.rig
         for key in ("camera_risk", "camera_var_threshold"):
@@ -79,11 +150,7 @@ class MeasurementRunner(MeasurementStage):
                 raise InputError(f"measurement.silhouette.{key}",
                                  f"unknown camera {unknown[0]!r} (this sequence has "
                                  f"{', '.join(seq.all_camera_names)})")
-        if mc.grid_origin is not None:
-            grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
-            grid.check_memory(8.0, what="the measurement volumes")
-        else:
-            grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
+        n_cam = len(seq.camera_names)
         frames = {}
         for cam in seq.camera_names:
             paths = seq.background_paths(cam)
@@ -91,24 +158,79 @@ class MeasurementRunner(MeasurementStage):
                 per_video = max(1, mc.background_frames // len(paths))
                 frames[cam] = seq.background_sets(cam, max_frames=per_video)
         missing = [c for c in seq.camera_names if c not in frames]
-        if missing and silhouette.method == "gaussian":
-            # The toolkit's Gaussian model is the default only where background videos exist.
-            silhouette = dataclasses.replace(silhouette, method="mog2")
-            # Train on frames spread over the whole sequence: a moving person averages out.
-            n = seq.n_frames
-            sample = np.unique(np.linspace(1, n, min(n, mc.background_frames)).round().astype(int))
-            for cam in missing:
-                frames[cam] = [[]]
-            for _, images in seq.frames(sample):
+        #: the background is learnt from the sequence itself (a real recording without plate)
+        self.learnt_plate = bool(missing) and silhouette.method in ("gaussian", "plate")
+        holes = mc.carve_holes if mc.carve_holes is not None else (
+            1 if self.learnt_plate and n_cam >= 4 else 0)
+        person_only = mc.person_only if mc.person_only is not None else self.learnt_plate
+        placement = mc.grid_placement
+        if placement == "auto":
+            placement = "person" if self.learnt_plate else "rig"
+        coarse = None
+        if self.learnt_plate or (mc.grid_origin is None and placement == "person"):
+            coarse = VoxelGrid.from_rig(rig, mc.coarse_voxel_size, min_views=min(3, n_cam),
+                                        height=COARSE_HEIGHT_MM, probe_height=COARSE_PROBE_MM,
+                                        margin=COARSE_MARGIN_MM, bytes_per_voxel=4.0 * n_cam + 8)
+        samples = None
+        if self.learnt_plate:
+            samples = self._sample_frames(seq, silhouette.plate_frames)
+            plates = learn_plates(samples, rig, coarse, silhouette, holes=holes, log=self._say)
+            self._say(f"no background video for {', '.join(missing)}: background plate learnt "
+                      f"from {len(next(iter(samples.values())))} frames of the sequence "
+                      "(noise σ " + ", ".join(f"{c} {plates[c].camera_sigma:.1f}"
+                                               for c in missing) + " grey levels)")
+            backgrounds = {c: plates[c] for c in missing}
+            if len(missing) < n_cam:
+                backgrounds.update(build_backgrounds(
+                    silhouette, [c for c in seq.camera_names if c in frames], frames, sets=True))
+        elif silhouette.method == "plate":
+            backgrounds = {c: plate_from_frames(np.stack([f for s in frames[c] for f in s]),
+                                                silhouette) for c in seq.camera_names}
+        else:
+            if missing:
+                # MOG2 asked for: train on frames spread over the whole sequence.
+                n = seq.n_frames
+                sample = np.unique(np.linspace(1, n, min(n, mc.background_frames)).round()
+                                   .astype(int))
                 for cam in missing:
-                    frames[cam][0].append(images[cam])
-            self._say(f"no background video for {', '.join(missing)}: using MOG2 learnt from "
-                      f"{len(sample)} frames spread over the sequence")
+                    frames[cam] = [[]]
+                for _, images in seq.frames(sample):
+                    for cam in missing:
+                        frames[cam][0].append(images[cam])
+                self._say(f"no background video for {', '.join(missing)}: using MOG2 learnt "
+                          f"from {len(sample)} frames spread over the sequence")
+            backgrounds = build_backgrounds(silhouette, seq.camera_names, frames, sets=True)
         self.adaptive = silhouette.method == "mog2" and silhouette.mog2_learning_rate != 0
-        backgrounds = build_backgrounds(silhouette, seq.camera_names, frames, sets=True)
+        if mc.grid_origin is not None:
+            grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
+            grid.check_memory(8.0, what="the measurement volumes")
+        elif placement == "person" and not self.adaptive:
+            if samples is None:
+                samples = self._sample_frames(seq, GRID_FRAMES)
+            stage = MeasurementStage(rig, coarse, backgrounds, silhouette, holes=holes,
+                                     person_only=True)
+            grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
+                               bytes_per_voxel=8.0)
+            self._say(f"grid placed around the person ({mc.grid_margin:g} mm margin): "
+                      f"{grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} voxels from "
+                      f"({', '.join(f'{v:.0f}' for v in grid.low)}) to "
+                      f"({', '.join(f'{v:.0f}' for v in grid.high)}) mm")
+        else:
+            grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
         super().__init__(rig, grid, backgrounds, silhouette, min_views=mc.min_views,
-                         sigma=mc.surface_sigma)
+                         sigma=mc.surface_sigma, holes=holes, person_only=person_only)
         self.sequence = seq
+
+    def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:
+        """``count`` frames spread evenly over the sequence, per camera (F, H, W, C) uint8."""
+        numbers = np.asarray(seq.frame_numbers)
+        pick = numbers[np.unique(np.linspace(0, len(numbers) - 1, min(len(numbers), count))
+                                 .round().astype(int))]
+        out = {cam: [] for cam in seq.camera_names}
+        for _, images in seq.frames(pick):
+            for cam in seq.camera_names:
+                out[cam].append(images[cam])
+        return {cam: np.stack(v) for cam, v in out.items()}
 
     @property
     def stage(self) -> MeasurementRunner:
@@ -147,6 +269,13 @@ class MeasurementRunner(MeasurementStage):
                           "this and any later such frame")
             if frame is not None:
                 seen.append(int(frame))
+        if not obs.empty and not obs.occupancy.any() and not self._said_no_voxel:
+            self._said_no_voxel = True
+            how = ("the background plate learnt from the sequence" if self.learnt_plate
+                   else "the background model")
+            self._say(f"{where}: the silhouettes carve into no voxel: the cameras disagree "
+                      f"about the person; check {how} (e.g. with 'dump --masks') and the "
+                      "calibration")
         if obs.empty:
             if not self.empty_frames:
                 self._say(f"{where}: every silhouette is empty (no person in view), the "

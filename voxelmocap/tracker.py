@@ -251,7 +251,10 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36)
     occ = measurement.occupancy
     idx = np.argwhere(occ)
     if len(idx) == 0:
-        raise InputError("first frame", "no occupied voxel: cannot initialise from the voxels")
+        raise InputError("first frame", "no occupied voxel: cannot initialise from the voxels "
+                                        "(is the person in view? is the background model right? "
+                                        "without background videos it is learnt from the "
+                                        "sequence, see the log above)")
     centre = measurement.grid.centre_of(idx).mean(axis=0)
     base = model.default_state()
     base[0], base[1] = centre[0], centre[1]

@@ -146,3 +146,51 @@ def test_overlay_refusals_are_one_line_and_leave_nothing(tmp_path, capsys, monke
     monkeypatch.setattr(overlay, "overlay_frame", breaks)
     fails(["--out", str(tmp_path / "x.mp4"), "--no-progress"], "cannot decode")
     assert calls["n"] == 2
+
+
+def test_mosaic_has_one_panel_per_camera_in_order():
+    from voxelmocap.viz.overlay import mosaic
+
+    colours = [(255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 0), (0, 255, 255)]
+    sizes = [(60, 40), (60, 40), (64, 48), (40, 80), (60, 40)]       # (W, H), mixed
+    panels = [np.full((h, w, 3), c, np.uint8) for (w, h), c in zip(sizes, colours, strict=True)]
+    out = mosaic(panels, max_width=10_000)
+    h0 = 40                                                      # the smallest height
+    w0 = max(round(w * h0 / h) for w, h in sizes)
+    n_cols = out.shape[1] // w0
+    assert out.shape[0] % 2 == 0 and out.shape[1] % 2 == 0
+    assert n_cols * (-(-len(panels) // n_cols)) >= len(panels)
+    for i, c in enumerate(colours):
+        r, col = divmod(i, n_cols)
+        centre = out[r * h0 + h0 // 2, col * w0 + 5]
+        np.testing.assert_array_equal(centre, c)
+    # shrunk to the width limit, even sides
+    small = mosaic(panels, max_width=101)
+    assert small.shape[1] <= 101 and small.shape[1] % 2 == 0 and small.shape[0] % 2 == 0
+
+
+def test_overlay_all_cameras_draws_the_landmarks_in_every_panel(tmp_path, capsys):
+    from voxelmocap.cli import main
+
+    data, run, _, _ = _tracked_run(tmp_path)
+    out = tmp_path / "all.avi"
+    assert main(["overlay", str(run), "--dataset", str(data), "--camera", "all", "--out",
+                 str(out), "--fps", "12"]) == 0
+    assert f"overlay: {out}" in capsys.readouterr().out
+    cap = cv2.VideoCapture(str(out))
+    ok, img = cap.read()
+    cap.release()
+    assert ok
+    from voxelmocap.io.humaneva import Dataset
+
+    rig = Dataset(data).sequence("S1", "Walking_1").rig
+    n = len(rig)
+    w, h = rig[0].size
+    red = (img[:, :, 2].astype(int) > 150) & (img[:, :, 2].astype(int) - img[:, :, 1] > 80)
+    # every camera's panel has red landmark dots: split the image into its grid of panels
+    from voxelmocap.viz.overlay import mosaic
+
+    probe = mosaic([np.full((h, w, 3), i + 1, np.uint8) for i in range(n)], max_width=10_000)
+    probe = cv2.resize(probe, (img.shape[1], img.shape[0]), interpolation=cv2.INTER_NEAREST)
+    for i in range(n):
+        assert red[probe[:, :, 0] == i + 1].sum() >= 5, f"no landmark drawn in panel {i + 1}"

@@ -1,4 +1,4 @@
-"""``voxelmocap overlay RUN --dataset DATASET --camera C1``: tracked cones over the camera images."""
+"""``voxelmocap overlay RUN --dataset DATASET --camera C1|all``: tracked cones over the camera images."""
 
 from __future__ import annotations
 
@@ -18,7 +18,9 @@ def add_parser(subparsers) -> None:
     )
     parser.add_argument("run_dir", metavar="RUN", help="run folder written by 'voxelmocap track'")
     parser.add_argument("--dataset", required=True, help="the data set that was tracked")
-    parser.add_argument("--camera", default="C1", help="camera name (default C1)")
+    parser.add_argument("--camera", default="C1",
+                        help="camera name, or 'all' for every camera side by side in one video "
+                             "(default C1)")
     parser.add_argument("--subject", help="subject (default: the only one in RUN)")
     parser.add_argument("--sequence", help="sequence (default: the only one in RUN)")
     parser.add_argument("--out", help="output video (.mp4, .avi, .mkv or .mov; default "

@@ -3,8 +3,9 @@
 :func:`cone_outline_points` samples each truncated elliptic cone as two ellipses (base and top)
 and four generator lines, :func:`draw_pose` projects them (and optional landmarks) through a
 camera's full model and draws them; :func:`overlay_frame` composes one frame of an overlay video
-(cones, tracked landmarks, ground truth, a caption). Pure functions on arrays; writing videos is
-:func:`voxelmocap.inspection.overlay_video`'s job.
+(cones, tracked landmarks, ground truth, a caption); :func:`overlay_all` puts every camera's
+overlay of one frame side by side (:func:`mosaic`), to check a real run by eye. Pure functions
+on arrays; writing videos is :func:`voxelmocap.inspection.overlay_video`'s job.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from ..joints import LANDMARK_PARENTS
 
 __all__ = ["TRACKED_COLOUR", "TRUTH_COLOUR", "cone_outline_points", "draw_landmarks", "draw_pose",
-           "overlay_frame"]
+           "mosaic", "overlay_all", "overlay_frame"]
 
 #: BGR colours of the ten parts (torso, head, arms, forearms, thighs, shins).
 PART_COLOURS = ((60, 180, 255), (255, 255, 255), (80, 220, 80), (40, 160, 40), (255, 120, 60),
@@ -127,3 +128,83 @@ def overlay_frame(image, camera, model, state, landmarks, *, truth=None, caption
         cv2.putText(out, caption, (8, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1,
                     cv2.LINE_AA)
     return np.ascontiguousarray(out)
+
+
+def mosaic(panels, *, max_width: int = 1920, aspect: float = 16 / 9, labels=None):
+    """Tile images of any sizes into one: equal panel heights, the layout closest to ``aspect``.
+
+    Parameters
+    ----------
+    panels : sequence of (H_i, W_i, 3) uint8 ndarray
+    max_width : int
+        The mosaic is shrunk (never enlarged) to at most this width; its sides are even (video
+        encoders need that).
+    aspect : float
+        Preferred width / height of the whole mosaic.
+    labels : sequence of str, optional
+        Drawn at the bottom left of each panel.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    panels = [np.asarray(p) for p in panels]
+    if not panels:
+        raise ValueError("no panels")
+    h0 = min(p.shape[0] for p in panels)
+    scaled = [cv2.resize(p, (max(1, round(p.shape[1] * h0 / p.shape[0])), h0),
+                         interpolation=cv2.INTER_AREA) if p.shape[0] != h0 else p for p in panels]
+    w0 = max(p.shape[1] for p in scaled)
+    n = len(scaled)
+    cols = min(range(1, n + 1), key=lambda c: abs(np.log(c * w0 / (-(-n // c) * h0) / aspect)))
+    rows = -(-n // cols)
+    out = np.zeros((rows * h0, cols * w0, 3), np.uint8)
+    for i, p in enumerate(scaled):
+        r, c = divmod(i, cols)
+        out[r * h0:(r + 1) * h0, c * w0:c * w0 + p.shape[1]] = p
+        if labels is not None:
+            cv2.putText(out, str(labels[i]), (c * w0 + 8, (r + 1) * h0 - 10),
+                        cv2.FONT_HERSHEY_SIMPLEX, max(0.5, h0 / 600), (255, 255, 255), 2,
+                        cv2.LINE_AA)
+    scale = min(1.0, max_width / out.shape[1])
+    w = max(2, int(out.shape[1] * scale) // 2 * 2)
+    h = max(2, int(out.shape[0] * scale) // 2 * 2)
+    return cv2.resize(out, (w, h), interpolation=cv2.INTER_AREA)
+
+
+def overlay_all(images, cameras, model, state, landmarks, *, truth=None, caption: str = "",
+                max_width: int = 1920):
+    """Every camera's overlay of one frame in one image (one panel per camera).
+
+    Parameters
+    ----------
+    images : mapping of str to (H, W) or (H, W, 3) uint8 ndarray
+        The frame of each camera, by name.
+    cameras : sequence of Camera
+        The cameras, in panel order.
+    model, state, landmarks, truth
+        As :func:`overlay_frame`.
+    caption : str
+        Written at the top left of the first panel.
+    max_width : int
+        Width limit of the mosaic (:func:`mosaic`).
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    panels = []
+    for i, cam in enumerate(cameras):
+        image = np.asarray(images[cam.name])
+        panel = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR) if image.ndim == 2 else image.copy()
+        # lines drawn for a 480-row image vanish when a 1920-row panel is shrunk: scale them
+        k = max(1, int(round(panel.shape[0] / 600)))
+        draw_pose(panel, cam, model, state, thickness=k)
+        if truth is not None:
+            draw_landmarks(panel, cam, truth, TRUTH_COLOUR, radius=3 * k)
+        draw_landmarks(panel, cam, landmarks, TRACKED_COLOUR, radius=3 * k)
+        if i == 0 and caption:
+            cv2.putText(panel, caption, (8, 24 * k), cv2.FONT_HERSHEY_SIMPLEX, 0.6 * k,
+                        (255, 255, 255), k, cv2.LINE_AA)
+        panels.append(panel)
+    return mosaic(panels, max_width=max_width, labels=[c.name for c in cameras])

@@ -1,0 +1,268 @@
+"""Real-data benchmark on the Pose2Sim demo: silhouettes, carving rules and tracked landmarks.
+
+Needs the independent reference of ``scripts/reference_pose2sim_demo.py`` (MediaPipe person masks
+and 2D keypoints triangulated over the four views, built without voxelmocap code).
+
+* ``silhouettes``: precision / recall / IoU per camera of the silhouettes against MediaPipe's
+  person mask, for today's fallback without a background plate (MOG2 learnt from the sequence,
+  adapting while it segments) and for the plate learnt from the sequence
+  (:mod:`voxelmocap.background`) with the measurement stage's clean-up.
+* ``carving``: which carving rule wins on real data: the strict visual hull, one hole tolerated
+  (``carve_holes = 1``) and ``min_views = 2``, each followed by the largest 3D component. Scored
+  by the share of the reference's 3D keypoints (12 body joints) inside the occupancy (grown by
+  one voxel) and by the IoU of the occupancy's silhouette, projected back into each view, with
+  MediaPipe's mask.
+* ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
+  mean error, share within 100 mm (head top excluded: MediaPipe has no head top).
+* ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
+
+    python scripts/bench_real.py silhouettes --ref /work/p2s_ref
+    python scripts/bench_real.py carving --ref /work/p2s_ref
+    voxelmocap track /work/p2s/x/Pose2Sim/Demo_SinglePerson --out RUN
+    python scripts/bench_real.py landmarks RUN --ref /work/p2s_ref
+    python scripts/bench_real.py overlays RUN --out docs/images
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+DEMO = Path("/work/p2s/x/Pose2Sim/Demo_SinglePerson")
+REF = Path("/work/p2s_ref")
+
+#: voxelmocap landmark → MediaPipe landmark(s) (the mean of two for thorax and pelvis).
+LANDMARK_MAP = {
+    "thorax": ("left_shoulder", "right_shoulder"), "pelvis": ("left_hip", "right_hip"),
+    "l_shoulder": ("left_shoulder",), "l_elbow": ("left_elbow",), "l_wrist": ("left_wrist",),
+    "r_shoulder": ("right_shoulder",), "r_elbow": ("right_elbow",), "r_wrist": ("right_wrist",),
+    "l_hip": ("left_hip",), "l_knee": ("left_knee",), "l_ankle": ("left_ankle",),
+    "r_hip": ("right_hip",), "r_knee": ("right_knee",), "r_ankle": ("right_ankle",),
+}
+BODY_JOINTS = ("left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist",
+               "right_wrist", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle",
+               "right_ankle")
+
+
+def load_reference(ref: Path):
+    data = np.load(ref / "reference.npz")
+    return {k: data[k] for k in data.files}
+
+
+def load_masks(ref: Path, camera: str) -> np.ndarray:
+    data = np.load(ref / f"masks_{camera}.npz")
+    shape = data["shape"]
+    return np.unpackbits(data["packed"], axis=2)[:, :, :shape[2]].astype(bool)
+
+
+def scores(pred: np.ndarray, truth: np.ndarray) -> tuple[float, float, float]:
+    tp = np.count_nonzero(pred & truth)
+    fp = np.count_nonzero(pred & ~truth)
+    fn = np.count_nonzero(~pred & truth)
+    return tp / max(tp + fp, 1), tp / max(tp + fn, 1), tp / max(tp + fp + fn, 1)
+
+
+def open_demo(demo: Path):
+    from voxelmocap.io.sequence import open_sequence
+
+    return open_sequence(demo)
+
+
+def table(rows, header) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------- silhouettes
+def silhouettes(args) -> None:
+    from voxelmocap.config import SilhouetteConfig, TrackConfig
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.silhouette import build_backgrounds, segment
+
+    seq = open_demo(args.demo)
+    names = list(seq.camera_names)
+    refm = {n: load_masks(args.ref, n) for n in names}
+    step = args.step
+    frames = list(seq.frame_numbers)
+    # before: MOG2 learnt from the sequence, adapting while it segments (today's fallback)
+    t0 = time.perf_counter()
+    mog_cfg = SilhouetteConfig(method="mog2")
+    sample = {n: [[]] for n in names}
+    for _, images in seq.frames(frames):
+        for n in names:
+            sample[n][0].append(images[n])
+    mog = build_backgrounds(mog_cfg, names, sample, sets=True)
+    before = {n: np.zeros(3) for n in names}
+    after = {n: np.zeros(3) for n in names}
+    counts = {n: np.zeros(3) for n in names}
+    t_mog = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    runner = MeasurementRunner(seq, TrackConfig(), log=print)
+    t_plate = time.perf_counter() - t0
+    for k, (number, images) in enumerate(seq.frames(frames)):
+        for n in names:
+            m_before = segment(images[n], mog[n], mog_cfg, camera=n)
+            if k % step:
+                continue
+            truth = refm[n][int(number) - 1]
+            m_after = segment(images[n], runner.backgrounds[n], runner.config, camera=n)
+            tp_b = np.array([np.count_nonzero(m_before & truth), np.count_nonzero(m_before & ~truth),
+                             np.count_nonzero(~m_before & truth)])
+            tp_a = np.array([np.count_nonzero(m_after & truth), np.count_nonzero(m_after & ~truth),
+                             np.count_nonzero(~m_after & truth)])
+            before[n] += tp_b
+            after[n] += tp_a
+            counts[n] += 1
+    rows = []
+    for n in names:
+        for label, c in (("before: MOG2 from the sequence", before[n]),
+                         ("after: learnt plate", after[n])):
+            tp, fp, fn = c
+            rows.append([n, label, f"{tp / max(tp + fp, 1):.2f}", f"{tp / max(tp + fn, 1):.2f}",
+                         f"{tp / max(tp + fp + fn, 1):.2f}"])
+    print(table(rows, ["camera", "silhouettes", "precision", "recall", "IoU"]))
+    print(f"frames scored: every {step}th of {len(frames)}; MOG2 learning {t_mog:.0f} s, plate "
+          f"learning + grid {t_plate:.0f} s; grid {runner.grid.shape} at "
+          f"{runner.grid.voxel_size:g} mm from {runner.grid.low.round()} to "
+          f"{runner.grid.high.round()}")
+    if args.save_masks:
+        np.savez_compressed(args.save_masks, **{n: np.stack([
+            segment(img[n], runner.backgrounds[n], runner.config, camera=n)
+            for _, img in seq.frames(frames[::step])]) for n in names})
+
+
+# ---------------------------------------------------------------------- carving rules
+def carving(args) -> None:
+    from voxelmocap.background import person_component
+    from voxelmocap.config import TrackConfig
+    from voxelmocap.measurement_runner import MeasurementRunner
+
+    seq = open_demo(args.demo)
+    names = list(seq.camera_names)
+    ref = load_reference(args.ref)
+    joint_idx = [list(ref["names"]).index(j) for j in BODY_JOINTS]
+    refm = {n: load_masks(args.ref, n) for n in names}
+    runner = MeasurementRunner(seq, TrackConfig(), log=print)
+    grid, carver = runner.grid, runner.carver
+    rules = {"strict (every view)": lambda m: carver.carve(m),
+             "one hole (carve_holes = 1)": lambda m: carver.carve_with_holes(m, 1),
+             "min_views = 2": lambda m: carver.carve(m, min_views=2)}
+    res = {r: {"inside": [], "iou": [], "volume": []} for r in rules}
+    frames = list(seq.frame_numbers)[::args.step]
+    for number, images in seq.frames(frames):
+        masks = runner.masks(images)
+        pts = ref["points_mm"][int(number) - 1, joint_idx]
+        for rule, fn in rules.items():
+            occ = person_component(fn(masks))
+            grown = cv2.dilate(occ.astype(np.uint8).reshape(occ.shape[0], -1),
+                               np.ones((3, 3), np.uint8)).reshape(occ.shape).astype(bool)
+            idx = grid.index_of(pts[np.isfinite(pts).all(axis=1)])
+            ok = grid.contains_index(idx)
+            inside = np.zeros(len(idx), bool)
+            inside[ok] = grown[tuple(idx[ok].T)]
+            res[rule]["inside"].append(inside.mean())
+            res[rule]["volume"].append(occ.sum() * grid.voxel_size ** 3 / 1e6)
+            for c, cam in enumerate(runner.cameras):
+                w, h = cam.size
+                sil = np.zeros(h * w, np.uint8)
+                t = carver.tables[c][occ.reshape(-1)]
+                sil[t[t >= 0] - int(carver._offsets[c])] = 1
+                sil = cv2.dilate(sil.reshape(h, w), np.ones((9, 9), np.uint8)).astype(bool)
+                res[rule]["iou"].append(scores(sil, refm[cam.name][int(number) - 1])[2])
+    rows = [[rule, f"{100 * np.mean(v['inside']):.1f} %", f"{np.mean(v['iou']):.2f}",
+             f"{np.mean(v['volume']):.0f}"] for rule, v in res.items()]
+    print(table(rows, ["carving rule", "reference joints inside", "reprojected IoU",
+                       "volume (litres)"]))
+
+
+# ---------------------------------------------------------------------- landmarks
+def _result(run: Path):
+    from voxelmocap.io.reports import find_result_files
+    from voxelmocap.io.results import read_result
+
+    files = [p for p in find_result_files(run) if p.suffix == ".h5"]
+    if len(files) != 1:
+        raise SystemExit(f"{run}: expected one result file, found {len(files)}")
+    return files[0], read_result(files[0])
+
+
+def landmarks(args) -> None:
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    ref = load_reference(args.ref)
+    names = list(ref["names"])
+    _, result = _result(args.run)
+    errs = []
+    per = {k: [] for k in LANDMARK_MAP}
+    for i, f in enumerate(result.frames):
+        truth = ref["points_mm"][int(f) - 1]
+        for j, name in enumerate(LANDMARK_NAMES):
+            if name not in LANDMARK_MAP:
+                continue                       # head top: MediaPipe has none
+            t = np.mean([truth[names.index(m)] for m in LANDMARK_MAP[name]], axis=0)
+            if not np.all(np.isfinite(t)):
+                continue
+            e = float(np.linalg.norm(result.landmarks[i, j] - t))
+            errs.append(e)
+            per[name].append(e)
+    errs = np.asarray(errs)
+    print(f"{len(result.frames)} frames, {len(errs)} landmark errors (head top excluded): mean "
+          f"{errs.mean():.0f} mm, median {np.median(errs):.0f} mm, within 100 mm "
+          f"{100 * np.mean(errs <= 100):.0f} %")
+    print(table([[k, f"{np.mean(v):.0f}", f"{100 * np.mean(np.asarray(v) <= 100):.0f} %"]
+                 for k, v in per.items()], ["landmark", "mean error (mm)", "within 100 mm"]))
+
+
+# ---------------------------------------------------------------------- overlays
+def overlays(args) -> None:
+    from voxelmocap.io.sequence import open_sequence
+    from voxelmocap.pipeline import body_model_for
+    from voxelmocap.viz.overlay import overlay_all
+
+    _, result = _result(args.run)
+    seq = open_sequence(args.demo)
+    model, _ = body_model_for(seq, None)
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = {int(f): i for i, f in enumerate(result.frames)}
+    wanted = [f for f in (1, 25, 50, 75, 100) if f in rows]
+    for number, images in seq.frames(wanted):
+        i = rows[int(number)]
+        img = overlay_all(images, list(seq.rig), model, result.state[i], result.landmarks[i],
+                          caption=f"frame {int(number)}", max_width=args.width)
+        out = args.out / f"pose2sim_demo_overlay_{int(number):03d}.png"
+        from PIL import Image
+
+        # a 64-colour palette keeps each PNG near 100 kB (the docs hold five)
+        Image.fromarray(img[:, :, ::-1]).quantize(64).save(out, optimize=True)
+        print(out, f"{out.stat().st_size / 1024:.0f} kB")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    for name in ("silhouettes", "carving", "landmarks", "overlays"):
+        p = sub.add_parser(name)
+        p.add_argument("--demo", type=Path, default=DEMO)
+        p.add_argument("--ref", type=Path, default=REF)
+        if name in ("landmarks", "overlays"):
+            p.add_argument("run", type=Path)
+        if name in ("silhouettes", "carving"):
+            p.add_argument("--step", type=int, default=5, help="score every STEP-th frame")
+        if name == "silhouettes":
+            p.add_argument("--save-masks", type=Path)
+        if name == "overlays":
+            p.add_argument("--out", type=Path, default=Path("docs/images"))
+            p.add_argument("--width", type=int, default=640)
+    args = ap.parse_args(argv)
+    {"silhouettes": silhouettes, "carving": carving, "landmarks": landmarks,
+     "overlays": overlays}[args.what](args)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

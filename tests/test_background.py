@@ -1,0 +1,290 @@
+"""Background plates learnt from the sequence (voxelmocap.background) and the real-video rules
+that go with them: noise-based thresholds, shadows, hole-tolerant carving, ghost rejection."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from voxelmocap.background import (
+    PlateBackground,
+    learn_plates,
+    masked_median,
+    person_component,
+    plate_from_frames,
+)
+from voxelmocap.config import SilhouetteConfig
+from voxelmocap.errors import InputError
+
+
+def _textured(rng, h=120, w=160):
+    """A smooth random colour texture (0–255) with no flat areas."""
+    import cv2
+
+    base = rng.uniform(40, 215, size=(h // 8, w // 8, 3)).astype(np.float32)
+    return cv2.resize(base, (w, h), interpolation=cv2.INTER_CUBIC).clip(20, 235)
+
+
+# ---------------------------------------------------------------------- noise and threshold
+def test_noise_level_and_false_alarm_rate_match_the_closed_form():
+    rng = np.random.default_rng(0)
+    plate = _textured(rng)
+    sigma = 3.0
+    frames = np.clip(np.round(plate + rng.normal(0, sigma, (60, *plate.shape))), 0, 255)
+    cfg = SilhouetteConfig(false_alarm=0.01)
+    bg = plate_from_frames(frames.astype(np.uint8), cfg)
+    # IQR / 1.349 is σ for Gaussian noise (rounding to integers adds 1/12 to the variance)
+    assert bg.camera_sigma == pytest.approx(np.sqrt(sigma ** 2 + 1 / 12), rel=0.1)
+    assert bg.threshold == pytest.approx(stats.chi2.isf(0.01, 3))
+    # on fresh noise frames the share of foreground pixels is the χ² tail probability
+    test = np.clip(np.round(plate + rng.normal(0, sigma, (20, *plate.shape))), 0, 255)
+    rate = np.mean([bg.foreground(t.astype(np.uint8)).mean() for t in test])
+    assert 0.4 * 0.01 < rate < 2.0 * 0.01
+    # the threshold follows each camera's own noise: a noisier camera keeps the same rate
+    frames6 = np.clip(np.round(plate + rng.normal(0, 2 * sigma, (60, *plate.shape))), 0, 255)
+    bg6 = plate_from_frames(frames6.astype(np.uint8), cfg)
+    assert bg6.camera_sigma == pytest.approx(2 * sigma, rel=0.1)
+    test6 = np.clip(np.round(plate + rng.normal(0, 2 * sigma, (20, *plate.shape))), 0, 255)
+    rate6 = np.mean([bg6.foreground(t.astype(np.uint8)).mean() for t in test6])
+    assert 0.4 * 0.01 < rate6 < 2.0 * 0.01
+
+
+def test_masked_median_equals_numpy_per_pixel():
+    rng = np.random.default_rng(1)
+    frames = rng.integers(0, 256, size=(9, 7, 5, 3), dtype=np.uint8)
+    keep = rng.random((9, 7, 5)) < 0.6
+    med, count = masked_median(frames, keep, rows=3)
+    for i in range(7):
+        for j in range(5):
+            k = keep[:, i, j]
+            assert count[i, j] == k.sum()
+            if k.any():
+                np.testing.assert_allclose(med[i, j], np.median(frames[k, i, j], axis=0))
+
+
+def test_exposure_gain_is_compensated():
+    rng = np.random.default_rng(2)
+    plate = _textured(rng)
+    bg = PlateBackground(plate, 2.0, false_alarm=1e-4, shadows=False)
+    brighter = np.clip(plate * 1.08, 0, 255).astype(np.uint8)   # auto-exposure step
+    assert bg.foreground(brighter).mean() < 0.01
+
+
+# ---------------------------------------------------------------------- shadows
+def test_cast_shadow_is_background_and_a_coloured_region_is_not():
+    rng = np.random.default_rng(3)
+    plate = _textured(rng)
+    bg = PlateBackground(plate, 2.0, false_alarm=1e-4, shadows=True)
+    img = plate.copy()
+    img[20:60, 20:80] *= 0.65                                      # darkened: a shadow
+    img[70:110, 90:150] = (30, 200, 60)                            # a green shirt
+    fg = bg.foreground(np.clip(img, 0, 255).astype(np.uint8))
+    assert fg[22:58, 22:78].mean() < 0.02
+    assert fg[72:108, 92:148].mean() > 0.98
+    no_shadow = PlateBackground(plate, 2.0, false_alarm=1e-4, shadows=False)
+    assert no_shadow.foreground(np.clip(img, 0, 255).astype(np.uint8))[22:58, 22:78].mean() > 0.9
+
+
+def test_unknown_pixels_are_foreground():
+    plate = np.full((10, 12, 3), 100.0)
+    known = np.ones((10, 12), bool)
+    known[2:4, 3:5] = False
+    fg = PlateBackground(plate, 2.0, known).foreground(plate.astype(np.uint8))
+    assert fg.sum() == 4 and not fg[known].any()
+
+
+# ---------------------------------------------------------------------- the learnt plate
+@pytest.fixture(scope="module")
+def still_walk():
+    from still_fixture import render_still_then_walk
+
+    return render_still_then_walk(24, shadow=False)
+
+
+def test_learnt_plate_recovers_the_true_background_of_a_person_standing_half_the_time(
+        still_walk):
+    from voxelmocap.grid import VoxelGrid
+
+    rig, frames, truth, masks, _ = still_walk
+    coarse = VoxelGrid.from_rig(rig, 50.0, min_views=3, height=2500, probe_height=1000)
+    cfg = SilhouetteConfig()
+    plates = learn_plates(frames, rig, coarse, cfg)
+    for cam in rig:
+        n = cam.name
+        median = plate_from_frames(frames[n], cfg)
+        known = plates[n].known
+        bad_median = (np.abs(median.plate - truth[n]).max(axis=2) > 15).sum()
+        bad = (np.abs(plates[n].plate - truth[n]).max(axis=2) > 15)[known].sum()
+        # the median holds the standing person; the learnt plate does not
+        assert bad_median > 1000
+        assert bad < 0.002 * known.size and bad < bad_median / 5
+        # pixels never seen empty are where the person was
+        ever = masks[n].any(axis=0)
+        import cv2
+        ever = cv2.dilate(ever.astype(np.uint8), np.ones((15, 15), np.uint8)).astype(bool)
+        assert (~known & ~ever).mean() < 0.01
+
+
+def test_a_person_who_never_moves_cannot_give_a_plate():
+    from voxelmocap.camera import Camera
+    from voxelmocap.grid import VoxelGrid
+
+    rng = np.random.default_rng(4)
+    plate = _textured(rng, 48, 64)
+    frames = np.repeat(plate[None].astype(np.uint8), 8, axis=0)      # nothing ever changes
+    cams = [Camera(f"C{i}", (60, 60), (31.5, 23.5), np.eye(3), (0, 0, 3000), size=(64, 48))
+            for i in range(4)]
+    grid = VoxelGrid((-500, -500, -500), 50.0, (20, 20, 20))
+    with pytest.raises(InputError, match="no person found"):
+        learn_plates({c.name: frames for c in cams}, cams, grid)
+
+
+# ---------------------------------------------------------------------- 3D rules
+def _ring_rig():
+    """Four cameras on a circle of 4 m, 1.5 m up, looking at a point 0.9 m above the origin."""
+    from voxelmocap.camera import Camera
+
+    cams = []
+    for i, a in enumerate(np.radians([0, 90, 180, 270])):
+        c = np.array([4000 * np.cos(a), 4000 * np.sin(a), 1500.0])
+        z = np.array([0, 0, 900.0]) - c
+        z /= np.linalg.norm(z)
+        x = np.cross(z, [0, 0, 1.0])
+        x /= np.linalg.norm(x)
+        y = np.cross(z, x)
+        R = np.stack([x, y, z])
+        cams.append(Camera(f"C{i + 1}", (300, 300), (159.5, 119.5), R, -R @ c, size=(320, 240)))
+    return cams
+
+
+def _project_masks(cams, occupancy, grid):
+    import cv2
+
+    pts = grid.centres()[occupancy.reshape(-1)]
+    masks = []
+    for cam in cams:
+        m = np.zeros((cam.size[1], cam.size[0]), np.uint8)
+        uv = np.round(cam.project(pts)).astype(int)
+        ok = (uv[:, 0] >= 0) & (uv[:, 0] < cam.size[0]) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.size[1])
+        m[uv[ok, 1], uv[ok, 0]] = 1
+        masks.append(cv2.dilate(m, np.ones((7, 7), np.uint8)).astype(bool))
+    return masks
+
+
+def _body(grid, *, leg=0.0, arm=0.0):
+    """A box person (torso, legs, head) with a leg and an arm stretched sideways (mm)."""
+    c = grid.centres().reshape(*grid.shape, 3)
+    x, y, z = c[..., 0], c[..., 1], c[..., 2]
+    occ = (np.abs(x) < 180) & (np.abs(y) < 120) & (z > 0) & (z < 1700)
+    occ |= (x > 0) & (x < 180 + arm) & (np.abs(y) < 60) & (np.abs(z - 1400) < 60)
+    occ |= (x < 0) & (x > -180 - leg) & (np.abs(y) < 70) & (np.abs(z - 500) < 70)
+    return occ
+
+
+def test_carving_tolerates_a_hole_in_one_view_only():
+    from voxelmocap.carving import Carver, carve_reference
+    from voxelmocap.grid import VoxelGrid
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))
+    body = _body(grid)
+    masks = _project_masks(cams, body, grid)
+    holed = [m.copy() for m in masks]
+    holed[0][110:130, :] = False                 # dark shorts on a dark floor in camera 1
+    carver = Carver(cams, grid)
+    strict = carver.carve(holed)
+    tolerant = carver.carve_with_holes(holed, 1)
+    # every voxel is seen by all four cameras here, so one hole allowed = "inside ≥ 3 of 4"
+    assert carver.coverage().min() == 4
+    np.testing.assert_array_equal(tolerant, carve_reference(holed, cams, grid, min_views=3))
+    assert (body & ~tolerant).sum() < 0.02 * body.sum() < (body & ~strict).sum()
+    # holes in two views are not tolerated
+    holed[1][110:130, :] = False
+    assert (body & ~carver.carve_with_holes(holed, 1)).sum() > (body & ~tolerant).sum()
+
+
+def test_a_blob_in_one_view_carves_into_nothing_and_is_rejected():
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measurement import MeasurementStage
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-1200, -1200, 0), 40.0, (60, 60, 45))
+    body = _body(grid)
+    masks = _project_masks(cams, body, grid)
+    ghost = [m.copy() for m in masks]
+    ghost[2][10:60, 20:70] = True              # a ghost / a background person in camera 3 only
+    backgrounds = {c.name: PlateBackground(np.zeros((240, 320)), 2.0) for c in cams}
+    stage = MeasurementStage(cams, grid, backgrounds, holes=1, person_only=True)
+    clean, _ = stage.carve(masks)
+    with_ghost, _ = stage.carve(ghost)
+    np.testing.assert_array_equal(with_ghost, clean)
+    # a second, separate 3D blob (another person seen by every camera) is dropped too
+    other = body.copy()
+    other[:] = False
+    c = grid.centres().reshape(*grid.shape, 3)
+    other |= (np.abs(c[..., 0] - 900) < 100) & (np.abs(c[..., 1] + 900) < 100) & (c[..., 2] < 600)
+    both = [a | b for a, b in zip(masks, _project_masks(cams, other, grid), strict=True)]
+    two, _ = stage.carve(both)
+    assert (two & other).sum() == 0 and (two & body).sum() > 0.95 * body.sum()
+
+
+def test_person_component_keeps_the_largest_and_joins_close_fragments():
+    occ = np.zeros((20, 20, 20), bool)
+    occ[2:8, 2:8, 2:8] = True                  # 216: the person
+    occ[2:8, 9:11, 2:8] = True                 # an arm one empty voxel away: joined
+    occ[15:18, 15:18, 15:18] = True            # 27: another blob
+    p = person_component(occ)
+    assert p.sum() == 216 + 72 and not p[15:18, 15:18, 15:18].any()
+    assert not person_component(np.zeros((3, 3, 3), bool)).any()
+
+
+def test_auto_grid_encloses_a_body_with_extended_limbs():
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measurement import MeasurementStage
+    from voxelmocap.measurement_runner import person_grid
+
+    cams = _ring_rig()
+    truth_grid = VoxelGrid((-1500, -1500, 0), 20.0, (150, 150, 100))
+    body = _body(truth_grid, leg=700, arm=650)
+    masks = _project_masks(cams, body, truth_grid)
+    coarse = VoxelGrid((-1500, -1500, 0), 50.0, (60, 60, 50))
+    backgrounds = {c.name: PlateBackground(np.zeros((240, 320)), 2.0, shadows=False)
+                   for c in cams}
+    stage = MeasurementStage(cams, coarse, backgrounds, holes=1, person_only=True)
+    samples = {c.name: (m[None] * 255).astype(np.uint8) for c, m in zip(cams, masks, strict=True)}
+    grid = person_grid(stage, samples, 20.0, margin=200.0)
+    pts = truth_grid.centres()[body.reshape(-1)]
+    assert np.all(pts >= grid.low) and np.all(pts <= grid.high)
+    # the margin is there on every side but the floor, and the box is not the whole area
+    assert grid.high[0] >= pts[:, 0].max() + 200 - 50
+    assert grid.low[0] <= pts[:, 0].min() - 200 + 50
+    assert grid.low[2] == 0.0
+    assert grid.n_voxels < 0.5 * VoxelGrid((-1500, -1500, 0), 20.0, (150, 150, 125)).n_voxels
+
+
+def test_runner_learns_the_plate_and_places_the_grid_without_background_videos(tmp_path):
+    """A HumanEva-layout sequence without Background/: plate from the sequence, grid around
+    the person, one hole tolerated with four cameras, the person's component only."""
+    import shutil
+
+    from voxelmocap.config import TrackConfig
+    from voxelmocap.io.humaneva import Dataset
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.synth import generate
+
+    root = generate(tmp_path / "data", motion="walk", frames=24, fps=8, cameras=["C1", "C2",
+                    "C3", "BW1"], progress=False, background_frames=2, seed=5)
+    shutil.rmtree(root / "Background")
+    seq = Dataset(root).sequence("S1", "Walking_1")
+    said = []
+    runner = MeasurementRunner(seq, TrackConfig(), log=said.append)
+    assert runner.learnt_plate and runner.holes == 1 and runner.person_only
+    assert any("background plate learnt from" in s for s in said)
+    assert any("grid placed around the person" in s for s in said)
+    gt = seq.ground_truth()
+    pts = gt.endpoints.reshape(-1, 3)
+    assert np.all(pts >= runner.grid.low) and np.all(pts <= runner.grid.high)
+    # the person is measured where the ground truth says
+    _, obs = next(runner.observations([12]))
+    centre = runner.grid.centre_of(np.argwhere(obs.occupancy)).mean(axis=0)
+    pelvis = gt.endpoints[list(gt.frames).index(12)].mean(axis=0)
+    assert np.linalg.norm(centre[:2] - pelvis[:2]) < 150
