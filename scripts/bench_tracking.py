@@ -100,8 +100,8 @@ def main() -> None:
 
 #: Named configurations compared side by side (``--variants``).
 VARIANTS = {
-    "joint": {},
-    "hierarchical": {"filter.search": "hierarchical"},
+    "joint": {"filter.search": "joint"},
+    "hierarchical": {"filter.search": "hierarchical", "filter.refine_evaluations": 0},
     "hierarchical+refine": {"filter.search": "hierarchical", "filter.refine_evaluations": 40},
 }
 
