@@ -55,7 +55,7 @@ def test_limb_crossing_the_torso_changes_the_torso_double_occupancy():
     grid = VoxelGrid((-1000.0, -1000.0, 0.0), 20.0, (100, 100, 100))
     seen = _observation(model, np.random.default_rng(5), grid)
     ref = model.default_state()
-    dims, parts = BODY_PARTITIONS[3]                # left arm
+    dims, parts = BODY_PARTITIONS[2]                # left arm
     scorer = PartialScorer(seen, model, ref, parts, dims)
     xs = np.repeat(ref[None], 2, axis=0)
     xs[1, dims[0]] = 45 * DEG                      # flexed forward…

@@ -219,7 +219,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
     """)
     pf = build_filter(MODEL, hier, 0)
     assert [(len(p.dims), p.layers, p.particles) for p in pf.partitions] == \
-        [(11, 4, 300)] + [(4, 3, 120)] * 4
+        [(11, 4, 300), (8, 3, 240), (4, 3, 120), (4, 3, 120)]
     assert (pf.refine_evaluations, pf.survival, pf.n_total) == (24, 0.4, 300)
 
 

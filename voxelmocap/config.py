@@ -248,11 +248,11 @@ class FilterConfig:
     #: ``refine_evaluations`` 40 and ``init.settle_steps`` 5): mean μ 89 mm against the joint
     #: search's 115 mm; docs/benchmarks.md, "Accuracy without the answer".
     search: str = _choice("hierarchical", "joint", default="hierarchical")
-    #: hierarchical search: layers and particles of the root-and-trunk partition and of each
-    #: limb partition (shoulder 3 + elbow, or hip 3 + knee). None: from ``layers`` and
-    #: ``particles``, spending the joint search's budget — the trunk ``layers // 2`` layers of
-    #: ``particles``, each limb ``layers // 3`` layers of ``3/8 · particles`` (at 6 × 600: 3 × 600
-    #: and 2 × 225, 3600 evaluations as the joint search; a limb's cost two cones out of ten)
+    #: hierarchical search: layers and particles of the root-and-trunk partition and per limb
+    #: (an arm: shoulder 3 + elbow; the two legs are one partition with twice the particles).
+    #: None: from ``layers`` and ``particles``, spending the joint search's budget — the trunk
+    #: ``layers // 2`` layers of ``particles``, limbs ``layers // 3`` layers of ``3/8 ·
+    #: particles`` each (at 6 × 600: 3 × 600, legs 2 × 450, arms 2 × 225: 3600 evaluations)
     trunk_layers: int | None = None
     trunk_particles: int | None = None
     limb_layers: int | None = None

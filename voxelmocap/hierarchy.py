@@ -1,15 +1,19 @@
 """The body's partitions for the hierarchical search, and their likelihoods.
 
-The state splits into five groups whose effect on the voxels can be scored apart (Deutscher &
+The state splits into four groups whose effect on the voxels can be scored apart (Deutscher &
 Reid 2005; Canton-Ferrer et al. 2011): the root, trunk and head (11 dimensions; they move every
-part, so this partition is scored in full), then each limb — left and right leg (hip 3 + knee),
-left and right arm (shoulder 3 + elbow) — which moves only its two cones. The legs go first:
-they hold more voxels than the arms and pin the pelvis height and heading the arms hang from.
+part, so this partition is scored in full), then both legs together (hip 3 + knee each), then
+each arm (shoulder 3 + elbow), which moves only its two cones. The legs are searched as a pair:
+searched one after the other, the first leg was scored against the second one's estimate of the
+previous frame, and in a walk the legs pass each other, so that stale leg's double occupancy
+pushed the first one away (the built-in demo's walk: 108–110 mm with the legs apart, 40–44 mm
+together; docs/benchmarks.md). The legs go first: they hold more voxels than the arms and pin
+the pelvis height and heading the arms hang from.
 A limb's particles are scored by :class:`~voxelmocap.partial_likelihood.PartialScorer`, equal to
 the full likelihood, at the cost of two cones instead of ten.
 
 >>> [len(d) for d, _ in BODY_PARTITIONS]
-[11, 4, 4, 4, 4]
+[11, 8, 4, 4]
 """
 
 from __future__ import annotations
@@ -35,8 +39,8 @@ def _parts(*names):
 BODY_PARTITIONS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
     (_dims("root_x", "root_y", "root_z", "root_yaw", "root_pitch", "root_roll", "waist_flex",
            "waist_side", "waist_twist", "neck_flex", "neck_side"), ()),
-    (_dims("l_hip_flex", "l_hip_abd", "l_hip_rot", "l_knee"), _parts("l_thigh", "l_shin")),
-    (_dims("r_hip_flex", "r_hip_abd", "r_hip_rot", "r_knee"), _parts("r_thigh", "r_shin")),
+    (_dims("l_hip_flex", "l_hip_abd", "l_hip_rot", "l_knee", "r_hip_flex", "r_hip_abd",
+           "r_hip_rot", "r_knee"), _parts("l_thigh", "l_shin", "r_thigh", "r_shin")),
     (_dims("l_shoulder_flex", "l_shoulder_abd", "l_shoulder_rot", "l_elbow"),
      _parts("l_upper_arm", "l_forearm")),
     (_dims("r_shoulder_flex", "r_shoulder_abd", "r_shoulder_rot", "r_elbow"),
@@ -48,11 +52,12 @@ def body_partitions(fc) -> list[Partition]:
     """The filter's partitions from a ``FilterConfig``.
 
     Sizes left None spend the joint search's budget (``FilterConfig.trunk_layers``): the trunk
-    ``layers // 2`` layers of ``particles``, each limb ``layers // 3`` layers of ``3/8`` of them.
+    ``layers // 2`` layers of ``particles``, each arm ``layers // 3`` layers of ``3/8`` of them,
+    the leg pair as many layers of twice as many particles (``limb_particles`` is per limb).
 
     >>> from voxelmocap.config import FilterConfig
     >>> [(len(p.dims), p.layers, p.particles) for p in body_partitions(FilterConfig())][:2]
-    [(11, 3, 600), (4, 2, 225)]
+    [(11, 3, 600), (8, 2, 450)]
     """
     def size(value, default):
         return int(default) if value is None else int(value)
@@ -61,7 +66,7 @@ def body_partitions(fc) -> list[Partition]:
                       size(fc.trunk_particles, fc.particles))
     limb_layers = size(fc.limb_layers, max(1, fc.layers // 3))
     limb_particles = size(fc.limb_particles, max(2, round(3 * fc.particles / 8)))
-    return [trunk] + [Partition(dims, limb_layers, limb_particles)
+    return [trunk] + [Partition(dims, limb_layers, limb_particles * (len(dims) // 4))
                       for dims, _ in BODY_PARTITIONS[1:]]
 
 
