@@ -35,6 +35,9 @@ def _parts(*names):
     return tuple(PART_NAMES.index(n) for n in names)
 
 
+#: Partitions moving more parts than this are scored by the full kernel (same values).
+PARTIAL_MAX_PARTS = 2
+
 #: (dimensions, parts they move) of each partition, in search order; parts ``()`` = all.
 BODY_PARTITIONS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
     (_dims("root_x", "root_y", "root_z", "root_yaw", "root_pitch", "root_roll", "waist_flex",
@@ -81,14 +84,18 @@ def pitch_prior(states, std_deg: float | None) -> np.ndarray | float:
 def log_likelihood_for(observation, model, variances, prior_deg, k: int, reference):
     """Partition ``k``'s log-likelihood callable ``(P, 27) -> (P,)`` around ``reference``.
 
-    Partition 0 is scored in full; a limb with :class:`PartialScorer` built on ``reference``.
+    Partition 0 and the leg pair are scored in full; an arm with :class:`PartialScorer` built on
+    ``reference`` (:data:`PARTIAL_MAX_PARTS`).
     The root-pitch prior (:func:`pitch_prior`) is added to both.
     """
     from .likelihood import log_likelihood
     from .partial_likelihood import PartialScorer
 
     dims, parts = BODY_PARTITIONS[k]
-    if not parts:
+    # The partial scorer walks the moving cones voxel by voxel for their double occupancy:
+    # cheaper than the full column kernel for one arm's two cones, dearer for the two legs'
+    # four large ones (measured: scripts/bench_tracking.py). Both give the same counts exactly.
+    if not parts or len(parts) > PARTIAL_MAX_PARTS:
         def ll(states):
             return log_likelihood(observation, model, states, variances=variances) + \
                 pitch_prior(states, prior_deg)
