@@ -34,7 +34,6 @@ from .likelihood import (
     QMAX,
     VoxelObservation,
     log_likelihood_from_scores,
-    part_counts,
     scores_from_counts,
 )
 
@@ -122,7 +121,3 @@ class PartialScorer:
         return log_likelihood_from_scores(scores_from_counts(self.counts(states)),
                                           variances=variances)
 
-
-def full_counts(observation, model, states) -> np.ndarray:
-    """``part_counts`` (here so that tests and benchmarks compare both from one module)."""
-    return part_counts(observation, model, states)

@@ -143,7 +143,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
                 own = x[:, dims].copy()
                 x = np.repeat(reference[None], x.shape[0], axis=0)
                 x[:, dims] = own
-            x, w, lls = self._anneal_partition(k, part, x, w, reference, ll, ess, betas, pos)
+            x, w, lls = self._anneal_partition(k, part, x, w, ll, ess, betas, pos)
             pos += part.layers
             reference[dims] = w.W @ x[:, dims]
             best = int(np.argmax(w.log_w))
@@ -186,7 +186,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         self.refine_gains[k] = f1 - float(f[0])
         return refined[dims]
 
-    def _anneal_partition(self, k, part, x, w, reference, ll, ess, betas, pos):
+    def _anneal_partition(self, k, part, x, w, ll, ess, betas, pos):
         """The layers of partition ``k`` (see the module docstring)."""
         dims = np.asarray(part.dims)
         scales = layer_noise_scales(part.layers, noise_decay=self.noise_decay)
