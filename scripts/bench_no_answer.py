@@ -10,7 +10,7 @@ frame's ground truth and the body file), for the comparison the issue asks for.
 Usage::
 
     python scripts/bench_no_answer.py --data /tmp/voxelmocap_acc/data --out /tmp/noanswer \\
-        [--seeds 3] [--frames 100] [--with-answer] [--clips Walking,Jog]
+        [--seeds 3] [--frames 100] [--with-answer | --keep-body] [--clips Walking,Jog]
 """
 
 from __future__ import annotations
@@ -32,15 +32,18 @@ from voxelmocap.pipeline import track_sequence
 from voxelmocap.synth import generate
 
 
-def stripped_copy(data: Path, subject: str, dest: Path) -> Path:
-    """``dest``: the data set with ``<subject>/Mocap_Data`` left out (links, not copies)."""
+def stripped_copy(data: Path, subject: str, dest: Path, *, keep_body: bool = False) -> Path:
+    """``dest``: the data set with ``<subject>/Mocap_Data`` left out (links, not copies);
+    with ``keep_body`` the body file ``<subject>_body.toml`` stays (the ground truth goes)."""
     if dest.exists():
         return dest
     tmp = dest.with_name(dest.name + ".building")
     shutil.rmtree(tmp, ignore_errors=True)
     for path in data.rglob("*"):
         rel = path.relative_to(data)
-        if rel.parts[0] not in (subject, "Background") or "Mocap_Data" in rel.parts:
+        if rel.parts[0] not in (subject, "Background"):
+            continue
+        if "Mocap_Data" in rel.parts and not (keep_body and path.name == f"{subject}_body.toml"):
             continue
         target = tmp / rel
         if path.is_dir():
@@ -84,6 +87,9 @@ def main() -> None:
                         help="init.multistart_frames (default: the config's, 10)")
     parser.add_argument("--with-answer", action="store_true",
                         help="track the original data (ground truth of frame 1, body file)")
+    parser.add_argument("--keep-body", action="store_true",
+                        help="leave the body file in the stripped copy (no ground truth, the "
+                             "subject's own body): the ablation 'body size from data vs file'")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="config override, e.g. filter.search=hierarchical (repeatable; "
                              "VALUE parsed as TOML)")
@@ -111,8 +117,9 @@ def main() -> None:
             generate(data, motion=str(MOCAP / clip), frames=args.frames, subject=subject,
                      action=action, start=start, progress=True)
         gt_path = Dataset(data).sequence(subject, seq_name).ground_truth_path
-        source = data if args.with_answer else stripped_copy(data, subject,
-                                                              out / "stripped" / subject)
+        folder = "stripped_body" if args.keep_body else "stripped"
+        source = data if args.with_answer else stripped_copy(
+            data, subject, out / folder / subject, keep_body=args.keep_body)
         per_seed = []
         for seed in range(args.seeds):
             run = out / tag / f"seed{seed}"

@@ -204,7 +204,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
             "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
             "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
-            "limb_particles", "refine_evaluations", "limb_explore"}
+            "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
     # the hierarchical search's own options
     hier = config_from_toml("""
@@ -294,3 +294,27 @@ def test_settling_steps_bring_a_rough_start_closer_before_the_first_record():
         # the settling steps are not motion: one estimate in the history, frame count 1
         assert tracker.filter.history.shape[0] == 1 and tracker.filter.frame == 1
     assert errors[6] < 0.9 * errors[0], errors
+
+
+def test_the_limb_proposal_reaches_the_hierarchical_search(walk):
+    """``filter.limb_proposal`` builds the frame's detector proposal and hands it to the
+    partitioned filter; 0 builds none."""
+    states, obs = walk
+    for share, built in ((0.0, False), (0.2, True)):
+        cfg = with_overrides(SMALL, **{"filter.search": "hierarchical",
+                                       "filter.trunk_particles": 40,
+                                       "filter.limb_particles": 20,
+                                       "filter.limb_proposal": share})
+        tracker = BodyTracker(MODEL, cfg, seed=1)
+        tracker.initialise(obs[0], MODEL.landmarks(states[:1])[0])
+        seen = []
+        step = tracker.filter.step_partitioned
+        tracker.filter.step_partitioned = (
+            lambda f, seen=seen, step=step, **kw: seen.append(kw) or step(f, **kw))
+        for o in obs[:3]:
+            tracker.step(o)
+        assert (tracker.last_proposal is not None) == built
+        # the first step has no estimate to propose around yet
+        assert [bool(kw) for kw in seen] == [False, built, built]
+        if built:
+            assert seen[1]["proposal_share"] == 0.2 and callable(seen[1]["proposal"])

@@ -263,6 +263,11 @@ class FilterConfig:
     #: hierarchical search: share of each limb partition's first layer drawn uniformly over the
     #: limb's legal ranges (a 4-dimensional box is small enough to search globally), in [0, 1)
     limb_explore: float = 0.0
+    #: hierarchical search: share of each limb partition's first layer whose limb comes from
+    #: the detector proposal of the frame (the voxels' extremities fitted by inverse kinematics,
+    #: ``voxelmocap.recovery.detector_proposal``, spread ``recovery.proposal_spread``), in
+    #: [0, 1); 0 = none (no detection either)
+    limb_proposal: float = 0.0
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
@@ -297,6 +302,10 @@ class InitConfig:
     #: extremity fit, a standing pose) settles onto the first frame's voxels instead of being
     #: dragged along by the motion while still far off; the estimate history is then cleared
     settle_steps: int = 5
+    #: search each starting pose's four limbs over their whole legal ranges on the first frame
+    #: (``voxelmocap.limb_search``; starts found from the voxels only): a start fitted to the
+    #: extremities often has a limb in a wrong optimum the annealing never leaves
+    limb_sweep: bool = True
 
 
 #: Formats ``track`` and ``export`` write (:mod:`voxelmocap.io.exports`).
@@ -527,6 +536,8 @@ def _check_ranges(obj, prefix: str, source) -> None:
         _check_filter(obj, prefix, source)
         if not 0.0 <= obj.limb_explore < 1.0:
             raise InputError(source, f"key '{prefix}.limb_explore' must be in [0, 1)")
+        if not 0.0 <= obj.limb_proposal < 1.0:
+            raise InputError(source, f"key '{prefix}.limb_proposal' must be in [0, 1)")
         if obj.refine_evaluations < 0:
             raise InputError(source, f"key '{prefix}.refine_evaluations' must be >= 0")
         for name in ("trunk_particles", "limb_particles"):

@@ -422,18 +422,38 @@ class BodyTracker:
             return (f"{GROUND_TRUTH_START} of {which}",
                     fit_to_landmarks(self.model, np.asarray(ground_truth, dtype=float)))
         if method == "voxels":
-            return (f"the voxels of {which} (centroid + yaw search)",
-                    initial_state_from_voxels(observation, self.model, self.variances))
-        from .detect import find_extremities
-        from .initialise import initial_pose
+            phrase = f"the voxels of {which} (centroid + yaw search)"
+            states = initial_state_from_voxels(observation, self.model, self.variances)
+        else:
+            from .detect import find_extremities
+            from .initialise import initial_pose
 
-        ex = find_extremities(observation.occupancy, observation.grid)
-        if ex is None:
-            raise InputError(which, "no occupied voxel: cannot initialise from the voxels (is "
-                                    "the person in view? is the background model right?)")
-        states, how = initial_pose(ex, self.model, self.log_likelihood(observation),
-                                   n_best=self.config.init.hypotheses)
-        return f"the voxels of {which}: {how}", states
+            ex = find_extremities(observation.occupancy, observation.grid)
+            if ex is None:
+                raise InputError(which, "no occupied voxel: cannot initialise from the voxels "
+                                        "(is the person in view? is the background model right?)")
+            states, how = initial_pose(ex, self.model, self.log_likelihood(observation),
+                                       n_best=self.config.init.hypotheses)
+            phrase = f"the voxels of {which}: {how}"
+        if self.config.init.limb_sweep:
+            states, moved = self.sweep_limbs(observation, states)
+            phrase += f"; limbs searched over their ranges ({moved} moved)"
+        return phrase, states
+
+    def sweep_limbs(self, observation, states) -> tuple[np.ndarray, int]:
+        """Each starting pose's limbs searched over their legal ranges on this frame
+        (:func:`voxelmocap.limb_search.sweep_limbs`); returns the poses (same shape) and how
+        many limbs moved over all of them."""
+        from .limb_search import sweep_limbs
+
+        states = np.asarray(states, dtype=float)
+        out = np.atleast_2d(states).copy()
+        moved = 0
+        for k in range(len(out)):
+            out[k], gains = sweep_limbs(observation, self.model, out[k], variances=self.variances,
+                                        seed=k)
+            moved += sum(g > 0 for g in gains.values())
+        return out.reshape(states.shape), moved
 
     def initialise(self, observation, ground_truth=None, *, frame=None) -> str:
         """Draw the first particles around :meth:`initial_state`; returns how it started.
@@ -459,7 +479,13 @@ class BodyTracker:
     def _run_filter(self, observation, spent):
         pf = self.filter
         if hasattr(pf, "step_partitioned"):
-            return pf.step_partitioned(self.partition_log_likelihood(observation, spent))
+            share = self.config.filter.limb_proposal
+            options = {}
+            if share > 0 and pf.estimate is not None:
+                mix = self.detector_mixture(observation, pf.estimate)
+                options = {"proposal": mix.sample, "proposal_share": share}
+            return pf.step_partitioned(self.partition_log_likelihood(observation, spent),
+                                       **options)
         proposal = self.proposal(observation) if pf.strategy == "iapf" else {}
         return pf.step(self.log_likelihood(observation, spent), **proposal)
 
@@ -590,20 +616,28 @@ class BodyTracker:
         the particles right after a start), or the pending re-initialisation mixture; its
         log-density is passed (importance correction) only with ``recovery.proposal_correction``.
         """
-        from .recovery import detector_proposal
-
         rc, pf = self.config.recovery, self.filter
         mix, self.pending_proposal = self.pending_proposal, None
         if pf.iapf_fractions[1] == 0:
             return {}  # no particle comes from the proposal: nothing to build
         if mix is None:
             previous = pf.estimate if pf.estimate is not None else pf.weights @ pf.particles
-            mix = detector_proposal(observation, self.model, std=rc.proposal_spread * self.noise_std,
-                                    previous=previous, gate_mm=rc.proposal_gate_mm,
-                                    mirror=rc.proposal_mirror)
+            mix = self.detector_mixture(observation, previous)
         self.last_proposal = mix
         return {"proposal": mix.sample,
                 "proposal_log_pdf": mix.log_pdf if rc.proposal_correction else None}
+
+    def detector_mixture(self, observation, previous):
+        """The frame's detector proposal around ``previous`` (27,): the extremities of the
+        voxels fitted by inverse kinematics (:func:`voxelmocap.recovery.detector_proposal`)."""
+        from .recovery import detector_proposal
+
+        rc = self.config.recovery
+        mix = detector_proposal(observation, self.model, std=rc.proposal_spread * self.noise_std,
+                                previous=previous, gate_mm=rc.proposal_gate_mm,
+                                mirror=rc.proposal_mirror)
+        self.last_proposal = mix
+        return mix
 
     def observe(self, observation, *, frame: int | None = None) -> FrameRecord:
         """:meth:`step` with recovery (``voxelmocap.recovery.Recovery``, ``config.recovery``).

@@ -108,12 +108,14 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
                 np.all(np.isfinite(self.low)) and np.all(np.isfinite(self.high)))):
             raise InputError("explore", "must be in [0, 1), with finite bounds when > 0")
         self.explore = float(explore)
+        self._proposal, self._proposal_share = None, 0.0
         self.refine_gains = np.zeros(len(parts))
 
     def step(self, log_likelihood, **kwargs):
         raise RuntimeError("PartitionedParticleFilter: call step_partitioned(log_likelihood_for)")
 
-    def step_partitioned(self, log_likelihood_for: LikelihoodFactory) -> np.ndarray:
+    def step_partitioned(self, log_likelihood_for: LikelihoodFactory, *, proposal=None,
+                         proposal_share: float = 0.0) -> np.ndarray:
         """Process one frame; returns the estimate ``(D,)``.
 
         Parameters
@@ -122,7 +124,19 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
             ``log_likelihood_for(k, reference (D,)) -> ll``, where ``ll((P, D)) -> (P,)`` scores
             partition ``k``'s particles. For ``k = 0`` the particles differ in every dimension;
             for ``k > 0`` they equal ``reference`` outside partition ``k``.
+        proposal : callable, optional
+            ``proposal(n, rng) -> (n, D)``: an importance function of this frame (e.g. a
+            detector's, :class:`voxelmocap.recovery.MixtureProposal`). ``proposal_share`` of the
+            first layer's particles of every partition after the first take their partition's
+            dimensions from it (the IAPF's mixing, Fontmarty et al. Table I, without the
+            importance correction), so that a limb the dynamics lost can jump back.
+        proposal_share : float
+            In [0, 1); 0 uses no proposal.
         """
+        if not 0.0 <= float(proposal_share) < 1.0:
+            raise InputError("proposal_share", "must be in [0, 1)")
+        self._proposal = proposal if proposal_share > 0 else None
+        self._proposal_share = float(proposal_share)
         if self.particles is None:
             raise RuntimeError("PartitionedParticleFilter.step_partitioned: initialise() first")
         self.step_evaluations = 0
@@ -205,6 +219,12 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
                 # jump to a better one
                 idx = self.rng.choice(part.particles, n_explore, replace=False)
                 x[np.ix_(idx, dims)] = self.rng.uniform(lo, hi, (n_explore, dims.size))
+            n_proposed = (round(self._proposal_share * part.particles)
+                          if layer == 0 and k > 0 and self._proposal is not None else 0)
+            if n_proposed:
+                idx = self.rng.choice(part.particles, n_proposed, replace=False)
+                x[np.ix_(idx, dims)] = np.clip(self._proposal(n_proposed, self.rng)[:, dims],
+                                               lo, hi)
             lls = self._evaluate(ll, x)
             beta = find_beta(lls, self.survival, beta_max=self.beta_max)
             w = Weights(tempered_log_weights(lls, beta))
