@@ -204,7 +204,8 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
             "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
             "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
-            "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal"}
+            "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal",
+            "limb_sweep_every"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
     # the hierarchical search's own options
     hier = config_from_toml("""
@@ -318,3 +319,21 @@ def test_the_limb_proposal_reaches_the_hierarchical_search(walk):
         assert [bool(kw) for kw in seen] == [False, built, built]
         if built:
             assert seen[1]["proposal_share"] == 0.2 and callable(seen[1]["proposal"])
+
+
+def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
+    """Truth: the rasterised pose has the left arm raised forward; the track starts with the arm
+    hanging. One step with ``filter.limb_sweep_every = 1`` finds the arm; the filter's particles
+    and estimate follow it."""
+    truth = MODEL.default_state()
+    truth[[11, 17]] = (1.4, 0.6)                       # left shoulder flexed, elbow bent
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
+    seen = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
+    cfg = with_overrides(SMALL, **{"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01})
+    tracker = BodyTracker(MODEL, cfg, seed=0)
+    tracker.start("test", MODEL.default_state())
+    record = tracker.step(seen)
+    wrist = np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4])
+    assert wrist < 60.0, wrist
+    np.testing.assert_array_equal(tracker.filter.estimate, record.state)
+    assert abs(np.median(tracker.filter.particles[:, 11]) - record.state[11]) < 0.2

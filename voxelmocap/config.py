@@ -268,6 +268,10 @@ class FilterConfig:
     #: ``voxelmocap.recovery.detector_proposal``, spread ``recovery.proposal_spread``), in
     #: [0, 1); 0 = none (no detection either)
     limb_proposal: float = 0.0
+    #: every this many frames, search each limb of the estimate over its legal ranges
+    #: (``voxelmocap.limb_search``, the voxel likelihood) and move the particles to a limb found
+    #: better: a limb lost by the annealing is found again; 0 = never
+    limb_sweep_every: int = 0
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
@@ -538,6 +542,8 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, f"key '{prefix}.limb_explore' must be in [0, 1)")
         if not 0.0 <= obj.limb_proposal < 1.0:
             raise InputError(source, f"key '{prefix}.limb_proposal' must be in [0, 1)")
+        if obj.limb_sweep_every < 0:
+            raise InputError(source, f"key '{prefix}.limb_sweep_every' must be >= 0")
         if obj.refine_evaluations < 0:
             raise InputError(source, f"key '{prefix}.refine_evaluations' must be >= 0")
         for name in ("trunk_particles", "limb_particles"):

@@ -440,6 +440,18 @@ class BodyTracker:
             phrase += f"; limbs searched over their ranges ({moved} moved)"
         return phrase, states
 
+    def _sweep_estimate(self, observation, est):
+        """The estimate ``(1, 27)`` with its limbs searched over their ranges; the filter's
+        particles follow a limb that moved (``filter.limb_sweep_every``)."""
+        from .limb_search import sweep_limbs
+
+        new, gains = sweep_limbs(observation, self.model, est[0], variances=self.variances,
+                                 sweeps=1, seed=self.filter.frame)
+        if sum(gains.values()) > 0:
+            self.filter.move_estimate(new)
+            return new[None]
+        return est
+
     def sweep_limbs(self, observation, states) -> tuple[np.ndarray, int]:
         """Each starting pose's limbs searched over their legal ranges on this frame
         (:func:`voxelmocap.limb_search.sweep_limbs`); returns the poses (same shape) and how
@@ -582,6 +594,9 @@ class BodyTracker:
         if self._settle:
             self.settle(observation)
         est = self.model.clip(self._run_filter(observation, spent)[None])
+        every = self.config.filter.limb_sweep_every
+        if every and pf.frame % every == 0:
+            est = self._sweep_estimate(observation, est)
         # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
         # joints picked by index); the part scores run their own inside the likelihood kernel.
         joints = self.model.forward(est).joints

@@ -289,3 +289,13 @@ def test_mixture_initialisation_draws_around_each_guess():
     a.initialise(guesses[1], 2.0)
     b.initialise(guesses[1:2], 2.0)
     np.testing.assert_array_equal(a.particles, b.particles)
+
+
+def test_move_estimate_shifts_every_particle_by_the_same_offset_within_bounds():
+    f = AnnealedParticleFilter(50, 2, -np.ones(2), np.ones(2), 0.1, rng=0)
+    f.initialise(np.zeros(2), 0.2)
+    f.step(lambda x: -np.sum(x ** 2, axis=1))
+    before, est = f.particles.copy(), f.estimate.copy()
+    f.move_estimate(est + [0.5, 0.0])
+    np.testing.assert_allclose(f.particles, np.clip(before + [0.5, 0.0], -1, 1))
+    np.testing.assert_allclose(f.estimate, est + [0.5, 0.0])

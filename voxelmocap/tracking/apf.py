@@ -295,6 +295,20 @@ class AnnealedParticleFilter:
         self._history = np.empty((0, self.dim))
         self._clear_records()
 
+    def move_estimate(self, state) -> None:
+        """Replace the last estimate by ``state`` (D,) found outside the filter (e.g. a global
+        search of a few dimensions), moving every particle by the same offset (clipped to the
+        bounds) so that the next step searches around it."""
+        if self.estimate is None:
+            raise RuntimeError("move_estimate: no estimate yet")
+        state = np.asarray(state, dtype=float)
+        delta = state - self.estimate
+        self.particles = np.clip(self.particles + delta, self.low, self.high)
+        self.estimate = state.copy()
+        self.map_particle = np.clip(np.asarray(self.map_particle) + delta, self.low, self.high)
+        if len(self._history):
+            self._history[-1] = state
+
     def clear_history(self) -> None:
         """Forget the estimates the dynamics see (e.g. after settling steps on one frame) and
         restart the step count; particles and weights stay."""
