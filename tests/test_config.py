@@ -19,7 +19,7 @@ def test_defaults_are_the_papers_working_point():
     cfg = TrackConfig()
     assert (cfg.filter.layers, cfg.filter.particles) == (6, 600)
     assert cfg.measurement.voxel_size == 20.0
-    assert cfg.likelihood.variances == (0.01, 0.01, 0.1, 0.1)
+    assert cfg.likelihood.variances == (0.01, 0.1, 0.1, 0.1)
 
 
 def test_toml_round_trip(tmp_path):
