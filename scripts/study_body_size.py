@@ -40,6 +40,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--free-height", action="store_true")
     parser.add_argument("--coverage", type=float, default=0.0)
+    parser.add_argument("--no-do", action="store_true", help="fit without the DO term")
     parser.add_argument("--subjects", default=",".join(CLIPS))
     args = parser.parse_args()
     config = TrackConfig()
@@ -63,7 +64,10 @@ def main() -> None:
         model = BodyModel(base)
         states = np.array([fit_to_landmarks(model, lm) for lm in landmarks])
         t0 = time.perf_counter()
-        fit = fit_body_dimensions(observations, states, base, variances=config.likelihood.variances,
+        var = list(config.likelihood.variances)
+        if args.no_do:
+            var[1] = 1e9
+        fit = fit_body_dimensions(observations, states, base, variances=tuple(var),
                                   rounds=args.rounds, keep_height=not args.free_height,
                                   coverage=args.coverage)
         dt = time.perf_counter() - t0
