@@ -429,8 +429,10 @@ def _fit_body(tracker, observations, records, config, seed, meta, say):
     records and checkpoints of those frames, and the fitted model (``meta`` records it)."""
     from .body_size import dimensions_to_json, refit_start
 
+    t0 = time.perf_counter()
     tracker, records, checkpoints, fit = refit_start(tracker, observations, records, config,
                                                      seed)
+    seconds = time.perf_counter() - t0
     dims = fit.dimensions
     meta["body_model"] = (f"{meta['body_model']}; lengths fitted to {len(records)} frames "
                           f"(height {dims.height:.0f} mm; summed log-likelihood of "
@@ -438,7 +440,7 @@ def _fit_body(tracker, observations, records, config, seed, meta, say):
                           f"{fit.log_likelihood:.1f})")
     meta["body_height_mm"] = float(dims.height)
     meta["body_dimensions"] = dimensions_to_json(dims)
-    say(f"body: {meta['body_model']}")
+    say(f"body: {meta['body_model']} (fit and re-tracking: {seconds:.1f} s)")
     return tracker, records, checkpoints, tracker.model
 
 
