@@ -2,7 +2,7 @@
 
 For each clip's result file, the body it used (``body_dimensions`` when fitted, else the average
 adult scaled to ``body_height_mm``) and, per length, its ratio to the body file's (mean of left
-and right); the last column is the standing height's ratio.
+and right; the drops in mm, run / file); the last column is the standing height's ratio.
 
 Usage::
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from voxelmocap.body.shapes import BodyDimensions
+from voxelmocap.body.shapes import MAY_BE_ZERO, BodyDimensions
 from voxelmocap.body_size import FITTED_KEYS, dimensions_from_json
 from voxelmocap.io.body_file import read_body_file
 from voxelmocap.io.results import read_result
@@ -44,7 +44,9 @@ def main() -> None:
             dims = (dimensions_from_json(attrs["body_dimensions"]) if "body_dimensions" in attrs
                     else BodyDimensions.average(float(attrs["body_height_mm"])))
             truth = read_body_file(args.data / subject / "Mocap_Data" / f"{subject}_body.toml")
-            cells = [f"{mean(dims, k) / max(mean(truth, k), 1e-9):.2f}" for k in FITTED_KEYS]
+            # the drops are near 0 in some body files: millimetres (run / file), not a ratio
+            cells = [f"{mean(dims, k):.0f}/{mean(truth, k):.0f} mm" if k in MAY_BE_ZERO
+                     else f"{mean(dims, k) / max(mean(truth, k), 1e-9):.2f}" for k in FITTED_KEYS]
             print(f"| {run} | {action} | " + " | ".join(cells)
                   + f" | {dims.height / truth.height:.2f} |")
 
