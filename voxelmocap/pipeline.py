@@ -202,7 +202,10 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     model, model_source = body_model_for(seq, gt)
     # With neither a body file nor ground truth, the body is sized from the first frame's voxels
     # once they are measured (init.body = "voxels"); the tracker waits for it.
-    size_from_voxels = model_source.startswith("average") and config.init.body == "voxels"
+    size_from_voxels = (model_source.startswith("average")
+                        and config.init.body in ("voxels", "fitted"))
+    # init.body = "fitted": the lengths are fitted to the multi-start frames (voxelmocap.body_size)
+    fit_body = size_from_voxels and config.init.body == "fitted"
     fps = seq.frame_rate if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise InputError("fps", f"the frame rate must be a finite number > 0, got {fps!r}")
@@ -236,6 +239,9 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             if tracker is None:  # the height measured by the interrupted run, as it used it
                 height = float(previous.attrs["body_height_mm"])
                 model, model_source = _sized_model(height, None)
+                if "body_dimensions" in previous.attrs:  # a fitted body (init.body = "fitted")
+                    model = _fitted_model(previous.attrs["body_dimensions"], result_path)
+                    meta["body_dimensions"] = str(previous.attrs["body_dimensions"])
                 meta["body_model"] = model_source = str(previous.attrs["body_model"])
                 meta["body_height_mm"] = height
                 tracker = BodyTracker(model, config, seed=seed)
@@ -269,6 +275,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             recorder.start(seq, stage.grid)
         bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
         starts = None  # a MultiStart while its first frames run
+        start_observations = []  # its frames' measurements, when the body is fitted on them
         waiting = []  # flagged records of the frames without a person before the start
         try:
             for frame_number, images in seq.frames(selected[resumed_from:]):
@@ -309,6 +316,8 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                     # Nothing is written until the start is chosen: a run killed before that
                     # simply starts again.
                     records = starts.step(measurement, frame=frame_number)
+                    if fit_body:
+                        start_observations.append(measurement)
                     if bar is not None:
                         bar.update(1)
                     if records is None:
@@ -316,6 +325,10 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                     tracker, chosen_phrase = _chosen(starts, say)
                     init_method += chosen_phrase
                     checkpoints, starts = starts.checkpoints[starts.chosen], None
+                    if fit_body:
+                        tracker, records, checkpoints, model = _fit_body(
+                            tracker, start_observations, records, config, seed, meta, say)
+                        start_observations = []
                     _replay(recorder, records)
                 else:
                     # The file's seconds are the whole frame's: measurement, start and filter.
@@ -336,10 +349,15 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             if starts is not None:  # the sequence ended before the start was chosen
                 starts.finish()
                 tracker, chosen_phrase = _chosen(starts, say)
-                _replay(recorder, starts.records[starts.chosen])
+                records, checkpoints = (starts.records[starts.chosen],
+                                        starts.checkpoints[starts.chosen])
+                if fit_body:
+                    tracker, records, checkpoints, model = _fit_body(
+                        tracker, start_observations, records, config, seed, meta, say)
+                _replay(recorder, records)
                 init_method += chosen_phrase
-                _append(writer, waiting + starts.records[starts.chosen],
-                        [_NO_CHECKPOINT] * len(waiting) + starts.checkpoints[starts.chosen],
+                _append(writer, waiting + records,
+                        [_NO_CHECKPOINT] * len(waiting) + checkpoints,
                         tracker, done, len(selected), previous,
                         dict(meta, init_method=init_method), model, resume or overwrite, bar)
                 waiting = []
@@ -404,6 +422,34 @@ def _replay(recorder, records) -> None:
     if recorder is not None:
         for record in records:
             recorder(record, None)
+
+
+def _fit_body(tracker, observations, records, config, seed, meta, say):
+    """``voxelmocap.body_size.refit_start`` on the chosen start's frames; the new tracker, its
+    records and checkpoints of those frames, and the fitted model (``meta`` records it)."""
+    from .body_size import dimensions_to_json, refit_start
+
+    t0 = time.perf_counter()
+    tracker, records, checkpoints, fit = refit_start(tracker, observations, records, config,
+                                                     seed)
+    seconds = time.perf_counter() - t0
+    dims = fit.dimensions
+    meta["body_model"] = (f"{meta['body_model']}; lengths fitted to {len(records)} frames "
+                          f"(height {dims.height:.0f} mm; summed log-likelihood of "
+                          f"{len(fit.states)} frames {fit.start_log_likelihood:.1f} → "
+                          f"{fit.log_likelihood:.1f})")
+    meta["body_height_mm"] = float(dims.height)
+    meta["body_dimensions"] = dimensions_to_json(dims)
+    say(f"body: {meta['body_model']} (fit and re-tracking: {seconds:.1f} s)")
+    return tracker, records, checkpoints, tracker.model
+
+
+def _fitted_model(text, path):
+    """The body of a result file's ``body_dimensions`` attribute."""
+    from .body import BodyModel
+    from .body_size import dimensions_from_json
+
+    return BodyModel(dimensions_from_json(text, source=f"{path}: body_dimensions"))
 
 
 def _chosen(starts, say) -> tuple[BodyTracker, str]:

@@ -1,0 +1,204 @@
+import numpy as np
+import pytest
+
+from voxelmocap.body import BodyModel
+from voxelmocap.body.shapes import BodyDimensions
+from voxelmocap.body.state import STATE_INDEX
+from voxelmocap.body_size import (
+    FITTED_KEYS,
+    compass_combined,
+    dimensions_from_factors,
+    dimensions_from_json,
+    dimensions_to_json,
+    fit_body_dimensions,
+    pick_frames,
+    standing_height,
+)
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.errors import InputError
+from voxelmocap.grid import VoxelGrid
+from voxelmocap.likelihood import VoxelObservation, rasterise
+
+DEG = np.pi / 180.0
+
+
+def test_factors_scale_lengths_and_keep_the_height_when_asked():
+    base = BodyDimensions.average(1700.0)
+    same = dimensions_from_factors(base, np.ones(len(FITTED_KEYS)))
+    for key in FITTED_KEYS:
+        assert np.allclose(getattr(same, key), getattr(base, key))
+    # the average adult's chain gives its height to 0.1 mm
+    assert same.height == pytest.approx(base.height, abs=0.5)
+    f = np.ones(len(FITTED_KEYS))
+    f[FITTED_KEYS.index("thigh")] = 1.2
+    f[FITTED_KEYS.index("forearm")] = 0.8
+    free = dimensions_from_factors(base, f)
+    assert free.thigh == pytest.approx((1.2 * base.thigh[0],) * 2)
+    assert free.forearm == pytest.approx((0.8 * base.forearm[0],) * 2)
+    assert free.height == pytest.approx(same.height + 0.2 * base.thigh[0] / (1 - 0.045))
+    kept = dimensions_from_factors(base, f, keep_height=True)
+    assert kept.height == pytest.approx(base.height)
+    assert standing_height(kept) == pytest.approx(base.height)
+    # the chain's proportions are the factors', its sum the base's height
+    assert kept.thigh[0] / kept.shin[0] == pytest.approx(1.2 * base.thigh[0] / base.shin[0])
+    assert kept.forearm == free.forearm  # not in the standing chain
+    assert kept.w_thigh == base.w_thigh
+    with pytest.raises(ValueError):
+        dimensions_from_factors(base, np.ones(3))
+
+
+def test_dimensions_json_round_trip_and_bad_text():
+    dims = dimensions_from_factors(BodyDimensions.average(1650.0),
+                                   np.linspace(0.8, 1.2, len(FITTED_KEYS)))
+    assert dimensions_from_json(dimensions_to_json(dims)) == dims
+    with pytest.raises(InputError, match="body_dimensions"):
+        dimensions_from_json("{not json")
+    with pytest.raises(InputError):
+        dimensions_from_json('{"height": 1.0}')
+
+
+def test_pick_frames_spreads_and_keeps_all_when_few():
+    assert list(pick_frames(3, 5)) == [0, 1, 2]
+    assert list(pick_frames(10, 5)) == [0, 2, 4, 7, 9]
+    assert list(pick_frames(10, 2)) == [0, 9]
+
+
+def test_compass_combined_reaches_a_bounded_quadratic_optimum():
+    # Closed form: a separable quadratic with its optimum inside the bounds in 4 coordinates and
+    # beyond the upper bound in the fifth (the constrained optimum is the bound), one held fixed.
+    target = np.array([0.3, -0.2, 0.7, -0.5, 2.0, 0.4])
+    weights = np.array([1.0, 3.0, 0.5, 2.0, 1.0, 1.0])
+
+    def ll(x):
+        return -np.sum(weights * (x - target) ** 2, axis=1)
+
+    low, high = -np.ones(6), np.ones(6)
+    steps = np.array([0.25, 0.25, 0.25, 0.25, 0.25, 0.0])
+    x, f, n = compass_combined(ll, np.zeros(6), steps, low=low, high=high,
+                               max_evaluations=400, min_step=1 / 256)
+    assert np.allclose(x[:4], target[:4], atol=0.01)
+    assert x[4] == pytest.approx(1.0)
+    assert x[5] == 0.0
+    assert f == pytest.approx(float(ll(x[None])[0]))
+    assert n <= 400
+    # every coordinate moves in the same iteration: on a small budget it gets much nearer than
+    # the one-coordinate compass search of the tracker's refinement
+    from voxelmocap.tracking.refine import pattern_search
+
+    _, f_c, _ = compass_combined(ll, np.zeros(6), steps, low=low, high=high,
+                                   max_evaluations=50)
+    _, f_p, _ = pattern_search(ll, np.zeros(6), np.arange(5), steps[:5], low=low, high=high,
+                                 max_evaluations=50)
+    assert f_c > f_p + 0.1
+
+
+def _cone_frames(truth, n_frames=4, seed=0):
+    """Occupancies made from the cone model itself in poses with bent elbows and knees."""
+    model = BodyModel(truth)
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 20.0, (100, 100, 100))
+    rng = np.random.default_rng(seed)
+    poses = []
+    for _ in range(n_frames):
+        x = model.default_state()
+        x[STATE_INDEX["root_yaw"]] = rng.uniform(-np.pi, np.pi)
+        for name, lo, hi in [("l_elbow", 30, 100), ("r_elbow", 30, 100), ("l_knee", 20, 80),
+                             ("r_knee", 10, 60), ("l_hip_flex", 10, 50), ("r_hip_flex", -20, 20),
+                             ("l_shoulder_abd", 20, 70), ("r_shoulder_abd", 20, 70),
+                             ("l_shoulder_flex", -30, 60), ("r_shoulder_flex", -30, 60),
+                             ("waist_flex", 0, 20)]:
+            x[STATE_INDEX[name]] = rng.uniform(lo, hi) * DEG
+        poses.append(x)
+    poses = np.array(poses)
+    return [VoxelObservation(rasterise(model, x[None], grid) > 0, grid) for x in poses], poses
+
+
+def test_fit_recovers_the_lengths_of_a_rendered_cone_body():
+    # Independent truth: a cone body with known proportions far from the average adult's,
+    # rasterised in four poses; the fit starts from the average adult of the same height.
+    factors = np.array([0.93, 1.15, 0.8, 1.6, 1.15, 0.3, 1.06, 0.86, 0.9, 1.06])
+    truth = dimensions_from_factors(BodyDimensions.average(1700.0), factors)
+    base = BodyDimensions.average(truth.height)
+    observations, poses = _cone_frames(truth)
+    fit = fit_body_dimensions(observations, poses, base, keys=FITTED_KEYS, coverage=10.0)
+    assert fit.log_likelihood > fit.start_log_likelihood
+    errors = {k: abs(np.mean(getattr(fit.dimensions, k)) - np.mean(getattr(truth, k)))
+              for k in FITTED_KEYS}
+    before = {k: abs(np.mean(getattr(base, k)) - np.mean(getattr(truth, k)))
+              for k in FITTED_KEYS}
+    assert max(errors.values()) < 20.0, errors  # mm, at 20 mm voxels (before: up to 44 mm)
+    assert sum(errors.values()) < sum(before.values()) / 3, (errors, before)
+    assert fit.dimensions.height == pytest.approx(base.height)
+    assert fit.states.shape == poses.shape
+    assert np.allclose(fit.factors[FITTED_KEYS.index("thigh")],
+                       fit.dimensions.thigh[0] / base.thigh[0])
+
+
+def test_fit_keeps_lengths_not_asked_for():
+    truth = BodyDimensions.average(1700.0)
+    observations, poses = _cone_frames(truth, n_frames=2, seed=1)
+    fit = fit_body_dimensions(observations, poses, truth, rounds=1, length_evaluations=60,
+                              pose_evaluations=60, keys=("thigh",))
+    for key in FITTED_KEYS:
+        if key not in ("thigh", "torso", "head", "hip_drop", "shin"):  # chain rescaled
+            assert getattr(fit.dimensions, key) == getattr(truth, key)
+    with pytest.raises(ValueError):
+        fit_body_dimensions(observations, poses, truth, keys=("elbow",))
+
+
+@pytest.fixture(scope="module")
+def walk_without_answer(walk_dataset, tmp_path_factory):
+    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links)."""
+    import os
+
+    root = tmp_path_factory.mktemp("noanswer_body")
+    for path in walk_dataset.rglob("*"):
+        rel = path.relative_to(walk_dataset)
+        if "Mocap_Data" in rel.parts:
+            continue
+        if path.is_dir():
+            (root / rel).mkdir(parents=True, exist_ok=True)
+        else:
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(path, root / rel)
+    return root
+
+
+def test_track_with_a_fitted_body_records_it_and_resumes(walk_without_answer, tmp_path,
+                                                         monkeypatch):
+    from voxelmocap.io.results import ResultWriter, read_result
+    from voxelmocap.pipeline import track_sequence
+
+    config = with_overrides(TrackConfig(), **{
+        "filter.layers": 3, "filter.particles": 150, "init.multistart_frames": 3,
+        "init.body": "fitted"})
+    kwargs = dict(config=config, frames="1:6", seed=2, progress=False, log=lambda *_: None)
+    full = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "full", **kwargs)
+    result = read_result(full.result_path)
+    assert "lengths fitted to 3 frames" in result.attrs["body_model"]
+    dims = dimensions_from_json(result.attrs["body_dimensions"])
+    assert dims.height == pytest.approx(result.attrs["body_height_mm"])
+    # every frame comes from the fitted body: the landmarks are its forward kinematics
+    np.testing.assert_allclose(BodyModel(dims).landmarks(result.state), result.landmarks,
+                               atol=1e-6)
+    assert len(result) == 6
+    # Killed while writing the re-tracked first frames, then resumed: the same frames, the
+    # same body (re-read from the file, not fitted again).
+    real_append = ResultWriter.append
+    calls = {"n": 0}
+
+    def interrupted(self, *args, **kw):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        real_append(self, *args, **kw)
+
+    monkeypatch.setattr(ResultWriter, "append", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part", **kwargs)
+    monkeypatch.setattr(ResultWriter, "append", real_append)
+    resumed = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part",
+                             resume=True, **kwargs)
+    assert resumed.resumed_from == 2
+    b = read_result(resumed.result_path)
+    np.testing.assert_array_equal(result.state, b.state)
+    assert b.attrs["body_dimensions"] == result.attrs["body_dimensions"]
