@@ -220,13 +220,13 @@ def landmarks(args) -> None:
 
 # ---------------------------------------------------------------------- overlays
 def overlays(args) -> None:
+    from voxelmocap.inspection import result_body_model
     from voxelmocap.io.sequence import open_sequence
-    from voxelmocap.pipeline import body_model_for
     from voxelmocap.viz.overlay import overlay_all
 
     _, result = _result(args.run)
     seq = open_sequence(args.demo)
-    model, _ = body_model_for(seq, None)
+    model = result_body_model(seq, result)          # the body the run tracked with
     args.out.mkdir(parents=True, exist_ok=True)
     rows = {int(f): i for i, f in enumerate(result.frames)}
     wanted = [f for f in (1, 25, 50, 75, 100) if f in rows]
