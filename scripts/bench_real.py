@@ -150,7 +150,10 @@ def carving(args) -> None:
     runner = MeasurementRunner(seq, TrackConfig(), log=print)
     grid, carver = runner.grid, runner.carver
     rules = {"strict (every view)": lambda m: carver.carve(m),
-             "one hole (carve_holes = 1)": lambda m: carver.carve_with_holes(m, 1),
+             "one hole, anywhere (carve_hole_reach = 0)":
+                 lambda m: carver.carve_with_holes(m, 1),
+             f"one hole, within {runner.hole_reach:g} of the diagonal (default)":
+                 lambda m: carver.carve_with_holes(m, 1, reach=runner.hole_reach),
              "min_views = 2": lambda m: carver.carve(m, min_views=2)}
     res = {r: {"inside": [], "iou": [], "volume": []} for r in rules}
     frames = list(seq.frame_numbers)[::args.step]

@@ -178,6 +178,11 @@ class MeasurementConfig:
     #: occupied when ≥ holes + 2 cameras see it and ≤ holes of them miss it. None: 1 when the
     #: background is learnt from the sequence and there are four or more cameras, else 0
     carve_holes: int | None = None
+    #: with ``carve_holes``: a silhouette may miss an occupied voxel only when the voxel falls
+    #: within this share of the image diagonal of it (a hole *in* the person, not a voxel far
+    #: outside one view: the Pose2Sim demo's hull 426 → 317 litres, silhouette-reprojection IoU
+    #: 0.46 → 0.53, with MediaPipe's masks 273 → 212 litres); 0 = any distance
+    carve_hole_reach: float = 0.012
     #: keep only the largest 3D component of every frame (a 2D blob of a background person or
     #: a ghost that carves into a separate piece is not the person). None: on when the
     #: background is learnt from the sequence
@@ -584,6 +589,8 @@ def _check_measurement(obj: MeasurementConfig, prefix: str, source) -> None:
         bad("grid_margin", ">= 0")
     if obj.carve_holes is not None and obj.carve_holes < 0:
         bad("carve_holes", ">= 0")
+    if not 0 <= obj.carve_hole_reach <= 1:
+        bad("carve_hole_reach", "between 0 and 1")
     if not low <= obj.coarse_voxel_size <= high:
         bad("coarse_voxel_size", f"between {low:g} and {high:g} mm, got {obj.coarse_voxel_size:g}")
     if obj.grid_shape is not None and min(obj.grid_shape) < MIN_VOXELS_PER_AXIS:
