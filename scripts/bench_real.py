@@ -17,12 +17,15 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
   mean error, share within 100 mm (head top excluded: MediaPipe has no head top).
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
+* ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
+  every tracked frame (how much of the error the silhouettes cause).
 
     python scripts/bench_real.py silhouettes --ref /work/p2s_ref
     python scripts/bench_real.py carving --ref /work/p2s_ref
     voxelmocap track /work/p2s/x/Pose2Sim/Demo_SinglePerson --out RUN
     python scripts/bench_real.py landmarks RUN --ref /work/p2s_ref
     python scripts/bench_real.py overlays RUN --out docs/images
+    python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
 """
 
 from __future__ import annotations
@@ -260,14 +263,50 @@ def overlays(args) -> None:
         print(out, f"{out.stat().st_size / 1024:.0f} kB")
 
 
+# ---------------------------------------------------------------------- diagnostic
+def oracle_track(args) -> None:
+    """``voxelmocap track`` with MediaPipe's masks as the silhouettes of every tracked frame.
+
+    A diagnostic of how much of the tracked error the silhouettes cause (not a method: the
+    reference would no longer be independent). The grid is still placed from voxelmocap's own
+    silhouettes; only :meth:`MeasurementRunner.measure` of a numbered frame sees the masks.
+    """
+    import voxelmocap.measurement as measurement
+    import voxelmocap.measurement_runner as runner_module
+    from voxelmocap.cli import main as cli
+
+    ref = {n: load_masks(args.ref, n) for n in ("cam01", "cam02", "cam03", "cam04")}
+    current = {"frame": None}
+    masks_of, measure_of = measurement.MeasurementStage.masks, runner_module.MeasurementRunner.measure
+
+    def masks(self, images):
+        own = masks_of(self, images)
+        if current["frame"] is None:
+            return own
+        out = [np.pad(ref[c.name][current["frame"]],
+                      ((0, 0), (0, c.size[0] - ref[c.name].shape[2]))) for c in self.cameras]
+        return np.stack(out) if len({o.shape for o in out}) == 1 else out
+
+    def measure(self, images, *, frame=None):
+        current["frame"] = None if frame is None else int(frame) - 1
+        try:
+            return measure_of(self, images, frame=frame)
+        finally:
+            current["frame"] = None
+
+    measurement.MeasurementStage.masks = masks
+    runner_module.MeasurementRunner.measure = measure
+    cli(["track", str(args.demo), "--out", str(args.run)])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
-    for name in ("silhouettes", "carving", "landmarks", "overlays"):
+    for name in ("silhouettes", "carving", "landmarks", "overlays", "oracle-track"):
         p = sub.add_parser(name)
         p.add_argument("--demo", type=Path, default=DEMO)
         p.add_argument("--ref", type=Path, default=REF)
-        if name in ("landmarks", "overlays"):
+        if name in ("landmarks", "overlays", "oracle-track"):
             p.add_argument("run", type=Path)
         if name in ("silhouettes", "carving"):
             p.add_argument("--step", type=int, default=5, help="score every STEP-th frame")
@@ -283,7 +322,7 @@ def main(argv=None) -> int:
             p.add_argument("--width", type=int, default=640)
     args = ap.parse_args(argv)
     {"silhouettes": silhouettes, "carving": carving, "landmarks": landmarks,
-     "overlays": overlays}[args.what](args)
+     "overlays": overlays, "oracle-track": oracle_track}[args.what](args)
     return 0
 
 
