@@ -180,7 +180,7 @@ class MeasurementConfig:
     carve_holes: int | None = None
     #: with ``carve_holes``: a silhouette may miss an occupied voxel only when the voxel falls
     #: within this share of the image diagonal of it (a hole *in* the person, not a voxel far
-    #: outside one view). The Pose2Sim demo (≈ 11 px): hull 422 → 257 litres, silhouette-
+    #: outside one view). The Pose2Sim demo (≈ 11 px): hull 420 → 261 litres, silhouette-
     #: reprojection IoU 0.46 → 0.57, tracked mean error 425 → 322 mm (0.012: 318 litres, 0.53);
     #: 0 = any distance
     carve_hole_reach: float = 0.005
