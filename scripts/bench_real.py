@@ -4,23 +4,28 @@ Needs the independent reference of ``scripts/reference_pose2sim_demo.py`` (Media
 and 2D keypoints triangulated over the four views, built without voxelmocap code).
 
 * ``silhouettes``: precision / recall / IoU per camera of the silhouettes against MediaPipe's
-  person mask, for today's fallback without a background plate (MOG2 learnt from the sequence,
-  adapting while it segments) and for the plate learnt from the sequence
-  (:mod:`voxelmocap.background`) with the measurement stage's clean-up.
+  person mask, for the first fallback without a background plate (MOG2 learnt from the
+  sequence, adapting while it segments; ``--no-mog2`` skips it) and for the plate learnt from
+  the sequence (:mod:`voxelmocap.background`) with its never-seen pixels foreground or decided
+  by GrabCut (``plate_unknown``), after the measurement stage's clean-up.
 * ``carving``: which carving rule wins on real data: the strict visual hull, one hole tolerated
-  (``carve_holes = 1``) and ``min_views = 2``, each followed by the largest 3D component. Scored
+  (``carve_holes = 1``) anywhere or only near the silhouette (``carve_hole_reach``) and
+  ``min_views = 2``, each followed by the largest 3D component. Scored
   by the share of the reference's 3D keypoints (12 body joints) inside the occupancy (grown by
   one voxel) and by the IoU of the occupancy's silhouette, projected back into each view, with
   MediaPipe's mask.
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
   mean error, share within 100 mm (head top excluded: MediaPipe has no head top).
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
+* ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
+  every tracked frame (how much of the error the silhouettes cause).
 
     python scripts/bench_real.py silhouettes --ref /work/p2s_ref
     python scripts/bench_real.py carving --ref /work/p2s_ref
     voxelmocap track /work/p2s/x/Pose2Sim/Demo_SinglePerson --out RUN
     python scripts/bench_real.py landmarks RUN --ref /work/p2s_ref
     python scripts/bench_real.py overlays RUN --out docs/images
+    python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
 """
 
 from __future__ import annotations
@@ -80,6 +85,8 @@ def table(rows, header) -> str:
 
 # ---------------------------------------------------------------------- silhouettes
 def silhouettes(args) -> None:
+    import dataclasses
+
     from voxelmocap.config import SilhouetteConfig, TrackConfig
     from voxelmocap.measurement_runner import MeasurementRunner
     from voxelmocap.silhouette import build_backgrounds, segment
@@ -89,47 +96,50 @@ def silhouettes(args) -> None:
     refm = {n: load_masks(args.ref, n) for n in names}
     step = args.step
     frames = list(seq.frame_numbers)
-    # before: MOG2 learnt from the sequence, adapting while it segments (today's fallback)
-    t0 = time.perf_counter()
-    mog_cfg = SilhouetteConfig(method="mog2")
-    sample = {n: [[]] for n in names}
-    for _, images in seq.frames(frames):
-        for n in names:
-            sample[n][0].append(images[n])
-    mog = build_backgrounds(mog_cfg, names, sample, sets=True)
-    before = {n: np.zeros(3) for n in names}
-    after = {n: np.zeros(3) for n in names}
-    counts = {n: np.zeros(3) for n in names}
-    t_mog = time.perf_counter() - t0
     t0 = time.perf_counter()
     runner = MeasurementRunner(seq, TrackConfig(), log=print)
     t_plate = time.perf_counter() - t0
+    variants = {}
+    if not args.no_mog2:
+        # before: MOG2 learnt from the sequence, adapting while it segments (the first fallback)
+        mog_cfg = SilhouetteConfig(method="mog2")
+        sample = {n: [[]] for n in names}
+        for _, images in seq.frames(frames):
+            for n in names:
+                sample[n][0].append(images[n])
+        variants["MOG2 from the sequence"] = (mog_cfg, build_backgrounds(mog_cfg, names, sample,
+                                                                         sets=True), True)
+    variants["learnt plate, never-seen pixels foreground"] = (
+        dataclasses.replace(runner.config, plate_unknown="foreground"), runner.backgrounds, False)
+    variants[f"learnt plate, never-seen pixels by {runner.config.plate_unknown} (default)"] = (
+        runner.config, runner.backgrounds, False)
+    counts = {(v, n): np.zeros(3) for v in variants for n in names}
+    seconds = {v: 0.0 for v in variants}
     for k, (number, images) in enumerate(seq.frames(frames)):
-        for n in names:
-            m_before = segment(images[n], mog[n], mog_cfg, camera=n)
-            if k % step:
+        truth_of = {n: refm[n][int(number) - 1] for n in names}
+        for v, (cfg, models, every_frame) in variants.items():
+            if k % step and not every_frame:
                 continue
-            truth = refm[n][int(number) - 1]
-            m_after = segment(images[n], runner.backgrounds[n], runner.config, camera=n)
-            tp_b = np.array([np.count_nonzero(m_before & truth), np.count_nonzero(m_before & ~truth),
-                             np.count_nonzero(~m_before & truth)])
-            tp_a = np.array([np.count_nonzero(m_after & truth), np.count_nonzero(m_after & ~truth),
-                             np.count_nonzero(~m_after & truth)])
-            before[n] += tp_b
-            after[n] += tp_a
-            counts[n] += 1
+            for n in names:
+                t1 = time.perf_counter()
+                m = segment(images[n], models[n], cfg, camera=n)
+                seconds[v] += time.perf_counter() - t1
+                if k % step:
+                    continue
+                truth = truth_of[n]
+                counts[v, n] += [np.count_nonzero(m & truth), np.count_nonzero(m & ~truth),
+                                 np.count_nonzero(~m & truth)]
     rows = []
     for n in names:
-        for label, c in (("before: MOG2 from the sequence", before[n]),
-                         ("after: learnt plate", after[n])):
-            tp, fp, fn = c
-            rows.append([n, label, f"{tp / max(tp + fp, 1):.2f}", f"{tp / max(tp + fn, 1):.2f}",
+        for v in variants:
+            tp, fp, fn = counts[v, n]
+            rows.append([n, v, f"{tp / max(tp + fp, 1):.2f}", f"{tp / max(tp + fn, 1):.2f}",
                          f"{tp / max(tp + fp + fn, 1):.2f}"])
     print(table(rows, ["camera", "silhouettes", "precision", "recall", "IoU"]))
-    print(f"frames scored: every {step}th of {len(frames)}; MOG2 learning {t_mog:.0f} s, plate "
-          f"learning + grid {t_plate:.0f} s; grid {runner.grid.shape} at "
-          f"{runner.grid.voxel_size:g} mm from {runner.grid.low.round()} to "
-          f"{runner.grid.high.round()}")
+    print(f"frames scored: every {step}th of {len(frames)}; plate learning + grid {t_plate:.0f} s; "
+          + ", ".join(f"{v}: {s:.0f} s segmenting" for v, s in seconds.items())
+          + f"; grid {runner.grid.shape} at {runner.grid.voxel_size:g} mm from "
+          f"{runner.grid.low.round()} to {runner.grid.high.round()}")
     if args.save_masks:
         np.savez_compressed(args.save_masks, **{n: np.stack([
             segment(img[n], runner.backgrounds[n], runner.config, camera=n)
@@ -150,12 +160,23 @@ def carving(args) -> None:
     runner = MeasurementRunner(seq, TrackConfig(), log=print)
     grid, carver = runner.grid, runner.carver
     rules = {"strict (every view)": lambda m: carver.carve(m),
-             "one hole (carve_holes = 1)": lambda m: carver.carve_with_holes(m, 1),
+             "one hole, anywhere (carve_hole_reach = 0)":
+                 lambda m: carver.carve_with_holes(m, 1),
+             f"one hole, within {runner.hole_reach:g} of the diagonal (default)":
+                 lambda m: carver.carve_with_holes(m, 1, reach=runner.hole_reach),
              "min_views = 2": lambda m: carver.carve(m, min_views=2)}
     res = {r: {"inside": [], "iou": [], "volume": []} for r in rules}
     frames = list(seq.frame_numbers)[::args.step]
     for number, images in seq.frames(frames):
-        masks = runner.masks(images)
+        if args.mediapipe_masks:
+            # the reference's person masks (videos 8 columns narrower than the calibration are
+            # cropped on the right, as the project reader assumes): the hull each rule gives
+            # with near-perfect silhouettes
+            masks = [np.pad(refm[c.name][int(number) - 1],
+                            ((0, 0), (0, c.size[0] - refm[c.name].shape[2])))
+                     for c in runner.cameras]
+        else:
+            masks = runner.masks(images)
         pts = ref["points_mm"][int(number) - 1, joint_idx]
         for rule, fn in rules.items():
             occ = person_component(fn(masks))
@@ -220,13 +241,13 @@ def landmarks(args) -> None:
 
 # ---------------------------------------------------------------------- overlays
 def overlays(args) -> None:
+    from voxelmocap.inspection import result_body_model
     from voxelmocap.io.sequence import open_sequence
-    from voxelmocap.pipeline import body_model_for
     from voxelmocap.viz.overlay import overlay_all
 
     _, result = _result(args.run)
     seq = open_sequence(args.demo)
-    model, _ = body_model_for(seq, None)
+    model = result_body_model(seq, result)          # the body the run tracked with
     args.out.mkdir(parents=True, exist_ok=True)
     rows = {int(f): i for i, f in enumerate(result.frames)}
     wanted = [f for f in (1, 25, 50, 75, 100) if f in rows]
@@ -242,25 +263,66 @@ def overlays(args) -> None:
         print(out, f"{out.stat().st_size / 1024:.0f} kB")
 
 
+# ---------------------------------------------------------------------- diagnostic
+def oracle_track(args) -> None:
+    """``voxelmocap track`` with MediaPipe's masks as the silhouettes of every tracked frame.
+
+    A diagnostic of how much of the tracked error the silhouettes cause (not a method: the
+    reference would no longer be independent). The grid is still placed from voxelmocap's own
+    silhouettes; only :meth:`MeasurementRunner.measure` of a numbered frame sees the masks.
+    """
+    import voxelmocap.measurement as measurement
+    import voxelmocap.measurement_runner as runner_module
+    from voxelmocap.cli import main as cli
+
+    ref = {n: load_masks(args.ref, n) for n in ("cam01", "cam02", "cam03", "cam04")}
+    current = {"frame": None}
+    masks_of, measure_of = measurement.MeasurementStage.masks, runner_module.MeasurementRunner.measure
+
+    def masks(self, images):
+        own = masks_of(self, images)
+        if current["frame"] is None:
+            return own
+        out = [np.pad(ref[c.name][current["frame"]],
+                      ((0, 0), (0, c.size[0] - ref[c.name].shape[2]))) for c in self.cameras]
+        return np.stack(out) if len({o.shape for o in out}) == 1 else out
+
+    def measure(self, images, *, frame=None):
+        current["frame"] = None if frame is None else int(frame) - 1
+        try:
+            return measure_of(self, images, frame=frame)
+        finally:
+            current["frame"] = None
+
+    measurement.MeasurementStage.masks = masks
+    runner_module.MeasurementRunner.measure = measure
+    cli(["track", str(args.demo), "--out", str(args.run)])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
-    for name in ("silhouettes", "carving", "landmarks", "overlays"):
+    for name in ("silhouettes", "carving", "landmarks", "overlays", "oracle-track"):
         p = sub.add_parser(name)
         p.add_argument("--demo", type=Path, default=DEMO)
         p.add_argument("--ref", type=Path, default=REF)
-        if name in ("landmarks", "overlays"):
+        if name in ("landmarks", "overlays", "oracle-track"):
             p.add_argument("run", type=Path)
         if name in ("silhouettes", "carving"):
             p.add_argument("--step", type=int, default=5, help="score every STEP-th frame")
+        if name == "carving":
+            p.add_argument("--mediapipe-masks", action="store_true",
+                           help="carve MediaPipe's masks instead of the silhouettes")
         if name == "silhouettes":
             p.add_argument("--save-masks", type=Path)
+            p.add_argument("--no-mog2", action="store_true",
+                           help="skip the MOG2 baseline (it segments every frame)")
         if name == "overlays":
             p.add_argument("--out", type=Path, default=Path("docs/images"))
             p.add_argument("--width", type=int, default=640)
     args = ap.parse_args(argv)
     {"silhouettes": silhouettes, "carving": carving, "landmarks": landmarks,
-     "overlays": overlays}[args.what](args)
+     "overlays": overlays, "oracle-track": oracle_track}[args.what](args)
     return 0
 
 

@@ -288,3 +288,78 @@ def test_runner_learns_the_plate_and_places_the_grid_without_background_videos(t
     centre = runner.grid.centre_of(np.argwhere(obs.occupancy)).mean(axis=0)
     pelvis = gt.endpoints[list(gt.frames).index(12)].mean(axis=0)
     assert np.linalg.norm(centre[:2] - pelvis[:2]) < 150
+
+
+def test_hole_reach_equals_the_brute_force_rule_and_drops_far_phantoms():
+    """One hole tolerated only near the silhouette = "inside ≥ N−1 masks" and "inside every
+    mask dilated by the reach" (carve_reference on scipy-dilated masks)."""
+    from scipy import ndimage
+
+    from voxelmocap.carving import Carver, carve_reference
+    from voxelmocap.grid import VoxelGrid
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-1200, -1200, 0), 40.0, (60, 60, 45))
+    body = _body(grid)
+    masks = _project_masks(cams, body, grid)
+    masks[0][114:126, :] = False                       # a hole inside the person in camera 1
+    # a phantom seen by cameras 2–4 (e.g. a never-seen region) where camera 1 sees background,
+    # far from its silhouette
+    c = grid.centres().reshape(*grid.shape, 3)
+    phantom = (np.abs(c[..., 0] - 700) < 150) & (np.abs(c[..., 1] - 700) < 150) & (c[..., 2] < 400)
+    extra = _project_masks(cams, phantom, grid)
+    masks = [m | (e if i else False) for i, (m, e) in enumerate(zip(masks, extra, strict=True))]
+    carver = Carver(cams, grid)
+    reach = 0.02                                       # 8 pixels of a 400-pixel diagonal
+    got = carver.carve_with_holes(masks, 1, reach=reach)
+    r = int(round(reach * np.hypot(320, 240)))
+    disk = np.hypot(*np.mgrid[-r:r + 1, -r:r + 1]) <= r
+    near = [ndimage.binary_dilation(m, structure=disk) for m in masks]
+    expected = (carve_reference(masks, cams, grid, min_views=3)
+                & carve_reference(near, cams, grid))
+    assert carver.coverage().min() == 4
+    np.testing.assert_array_equal(got, expected)
+    anywhere = carver.carve_with_holes(masks, 1)
+    assert (anywhere & phantom).sum() > 0.5 * phantom.sum()       # kept without the reach
+    assert (got & phantom).sum() == 0                              # dropped with it
+    assert (body & ~got).sum() < 0.02 * body.sum()                 # the inner hole still bridged
+
+
+def test_grabcut_decides_never_seen_pixels_from_the_frames_colours():
+    """A plate that never saw a region larger than the person: the old rule makes the whole
+    region foreground; GrabCut keeps the person (a colour unlike the background) only."""
+    rng = np.random.default_rng(3)
+    h, w = 240, 200
+    plate = np.zeros((h, w, 3), np.float32)
+    plate[:] = (200, 190, 180)                                     # a pale wall …
+    plate[:, : w // 2] = (170, 180, 200)                           # … in two tones
+    plate += rng.normal(0, 2, plate.shape)
+    person = np.zeros((h, w), bool)
+    person[60:200, 80:120] = True                                  # torso and legs
+    person[40:60, 90:110] = True                                   # head
+    image = plate.copy()
+    image[person] = (40, 60, 150)                                  # dark red clothing (BGR)
+    image = np.clip(image + rng.normal(0, 2, image.shape), 0, 255).astype(np.uint8)
+    known = np.ones((h, w), bool)
+    known[30:160, 50:150] = False                                  # never seen empty
+    bg = PlateBackground(plate.clip(0, 255), 2.0, known)
+
+    def iou(m):
+        return (m & person).sum() / (m | person).sum()
+
+    old = segment_with(bg, image, "foreground")
+    new = segment_with(bg, image, "grabcut")
+    assert iou(old) < 0.6
+    assert iou(new) > 0.9
+    # known pixels are never changed; the result is the same on a second call
+    np.testing.assert_array_equal(new[known], old[known])
+    np.testing.assert_array_equal(segment_with(bg, image, "grabcut"), new)
+    # nothing known in the crop to learn the person from: the mask is left as it is
+    blind = PlateBackground(plate.clip(0, 255), 2.0, np.zeros((h, w), bool))
+    np.testing.assert_array_equal(segment_with(blind, image, "grabcut"), np.ones((h, w), bool))
+
+
+def segment_with(bg, image, mode):
+    from voxelmocap.silhouette import segment
+
+    return segment(image, bg, SilhouetteConfig(plate_unknown=mode))

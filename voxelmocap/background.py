@@ -226,6 +226,76 @@ class PlateBackground:
         mask |= ~self.known
         return mask
 
+    def refine(self, image, mask, config: SilhouetteConfig | None = None) -> np.ndarray:
+        """Decide the never-seen pixels of a cleaned silhouette from this frame's colours.
+
+        :meth:`foreground` calls every pixel whose background was never seen foreground. With
+        ``config.plate_unknown == "grabcut"`` each 8-connected blob of ``mask`` holding such
+        pixels is cropped (its box grown by a quarter of its size) and handed to OpenCV's GrabCut
+        at ``grabcut_scale`` of the resolution: known foreground pixels are fixed foreground,
+        known background fixed background, the never-seen ones *probably foreground*, so GrabCut
+        labels only them, from colour models of this frame's person and background in the crop
+        and its edge-aware smoothness. A crop without known foreground or known background is
+        left as it is.
+
+        Parameters
+        ----------
+        image : (H, W, 3) or (H, W) uint8 array_like
+        mask : (H, W) bool array_like
+            The cleaned silhouette of ``image`` against this plate.
+        config : SilhouetteConfig, optional
+
+        Returns
+        -------
+        (H, W) bool ndarray
+            ``mask`` with its never-seen pixels decided (a new array).
+        """
+        config = config or _DEFAULT
+        mask = np.array(mask, bool)
+        unknown = mask & ~self.known
+        if config.plate_unknown != "grabcut" or not unknown.any():
+            return mask
+        img = _channels(np.asarray(image))
+        if img.shape[2] == 1:
+            img = np.repeat(img, 3, axis=2)
+        img = np.ascontiguousarray(img.astype(np.uint8, copy=False))
+        n, labels, st, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+        has_unknown = np.bincount(labels[unknown], minlength=n) > 0
+        h, w = mask.shape
+        for k in np.flatnonzero(has_unknown[1:]) + 1:
+            x, y, bw, bh = (int(st[k, i]) for i in (0, 1, 2, 3))
+            pad = max(bw, bh) // 4 + 8
+            box = (slice(max(y - pad, 0), min(y + bh + pad, h)),
+                   slice(max(x - pad, 0), min(x + bw + pad, w)))
+            mask[box] = _grabcut(img[box], mask[box], self.known[box],
+                                 config.grabcut_scale, config.grabcut_iterations)
+        return mask
+
+
+def _grabcut(image: np.ndarray, mask: np.ndarray, known: np.ndarray, scale: float,
+             iterations: int) -> np.ndarray:
+    """GrabCut of one crop: known pixels fixed, never-seen foreground pixels to decide."""
+    unknown = mask & ~known
+    sure_fg = mask & known
+    sure_bg = ~mask
+    if not (sure_fg.any() and sure_bg.any()):
+        return mask                       # no colour model for one of the two sides
+    h, w = mask.shape
+    size = (max(8, int(round(w * scale))), max(8, int(round(h * scale))))
+    labels = np.full((h, w), cv2.GC_BGD, np.uint8)
+    labels[sure_fg] = cv2.GC_FGD
+    labels[unknown] = cv2.GC_PR_FGD
+    small = cv2.resize(labels, size, interpolation=cv2.INTER_NEAREST)
+    if not ((small == cv2.GC_FGD).any() and (small == cv2.GC_BGD).any()):
+        return mask
+    crop = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    bgd, fgd = np.zeros((1, 65)), np.zeros((1, 65))
+    cv2.setRNGSeed(0)                     # GrabCut's k-means start: same frame, same mask
+    cv2.grabCut(crop, small, None, bgd, fgd, int(iterations), cv2.GC_INIT_WITH_MASK)
+    person = (small == cv2.GC_FGD) | (small == cv2.GC_PR_FGD)
+    person = cv2.resize(person.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST)
+    return np.where(unknown, person.astype(bool), mask)
+
 
 def _shadow(x, bg, brightness, chromaticity) -> np.ndarray:
     """Horprasert's test on (K, C) pixels: darker by α in ``brightness``, same chromaticity."""

@@ -270,7 +270,8 @@ class Carver:
         return out.reshape(self.grid.shape)
 
 
-    def carve_with_holes(self, masks, holes: int = 1, *, ignore=()) -> np.ndarray:
+    def carve_with_holes(self, masks, holes: int = 1, *, ignore=(),
+                         reach: float = 0.0) -> np.ndarray:
         """Occupancy tolerating ``holes`` silhouettes that miss an occupied voxel.
 
         A voxel is occupied when at least ``holes + 2`` cameras see it and at most ``holes`` of
@@ -287,6 +288,10 @@ class Carver:
             least two of them).
         ignore : sequence of int
             Cameras left out (they neither see nor vote).
+        reach : float
+            A silhouette may miss a voxel only when the voxel projects within ``reach`` × its
+            image diagonal of that silhouette (0: at any distance): a hole inside the person is
+            tolerated, a voxel far outside one view is not.
 
         Returns
         -------
@@ -296,7 +301,17 @@ class Carver:
         seen = seen.astype(np.int16)
         for c in ignore:
             seen -= (self.tables[c] >= 0).reshape(self.grid.shape)
-        return (seen >= int(holes) + 2) & (inside.astype(np.int16) >= seen - int(holes))
+        occ = (seen >= int(holes) + 2) & (inside.astype(np.int16) >= seen - int(holes))
+        if reach > 0 and holes > 0 and occ.any():
+            near = []
+            for m, cam in zip(masks, self.cameras, strict=True):
+                m = np.asarray(m, np.uint8)
+                r = max(1, int(round(reach * np.hypot(*cam.size))))
+                disk = (np.hypot(*np.mgrid[-r:r + 1, -r:r + 1]) <= r).astype(np.uint8)
+                near.append(cv2.dilate(m, disk).astype(bool))
+            _, near_inside = self.counts(near)
+            occ &= near_inside.astype(np.int16) >= seen
+        return occ
 
 
 def _cached_carver(cameras: list, grid: VoxelGrid) -> Carver:

@@ -16,10 +16,53 @@ from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["ALL_CAMERAS", "ViewOutcome", "overlay_video", "view_dump", "view_png_path"]
+__all__ = ["ALL_CAMERAS", "ViewOutcome", "overlay_video", "result_body_model", "view_dump",
+           "view_png_path"]
 
 #: The ``camera`` value of :func:`overlay_video` that draws every camera side by side.
 ALL_CAMERAS = "all"
+
+
+def result_body_model(seq, result, gt=None):
+    """The body model a result was tracked with, as its file records it.
+
+    A run without body file or ground truth sizes the body itself; the result file records how
+    (``body_dimensions``: every length, JSON, when they were fitted; ``body_height_mm``: the
+    average adult scaled to that height). Drawing :func:`~voxelmocap.pipeline.body_model_for`'s
+    unscaled average adult instead would show cones the tracker never used.
+
+    Parameters
+    ----------
+    seq : Sequence
+        The tracked sequence (its body file, when the result used one).
+    result : voxelmocap.io.results.Result
+        The result read back (its ``attrs``).
+    gt : GroundTruth, optional
+        The sequence's ground truth.
+
+    Returns
+    -------
+    BodyModel
+    """
+    import json
+
+    from .body import BodyDimensions, BodyModel
+    from .pipeline import body_model_for
+
+    attrs = result.attrs
+    if attrs.get("body_dimensions"):
+        try:
+            data = json.loads(str(attrs["body_dimensions"]))
+            return BodyModel(BodyDimensions(**{
+                k: tuple(float(x) for x in v) if isinstance(v, list) else float(v)
+                for k, v in data.items()}))
+        except (ValueError, TypeError) as exc:
+            raise InputError("result", f"body_dimensions is not a body's dimensions ({exc})") \
+                from None
+    height = attrs.get("body_height_mm")
+    if height is not None and str(attrs.get("body_model", "")).startswith("average adult scaled"):
+        return BodyModel.scaled(float(height))
+    return body_model_for(seq, gt)[0]
 
 
 def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | None = None,
@@ -62,7 +105,6 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
     from .io.sequence import open_sequence
     from .io.video_writer import VideoWriter, check_video_path
     from .joints import endpoints_to_landmarks
-    from .pipeline import body_model_for
     from .viz.overlay import overlay_all, overlay_frame
 
     if out is not None:
@@ -80,7 +122,7 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
                         cameras=None if every else [camera])
     cam = None if every else seq.rig[camera]
     gt = seq.ground_truth()
-    model, _ = body_model_for(seq, gt)
+    model = result_body_model(seq, result, gt)
     label = "all" if every else cam.name
     out = Path(out) if out is not None else path.with_name(f"{path.stem}_({label})_overlay.mp4")
     rows = {int(f): i for i, f in enumerate(result.frames)}

@@ -87,6 +87,13 @@ class MeasurementStage:
         Carving rule (:meth:`voxelmocap.carving.Carver.carve`); default every camera that sees a voxel.
     sigma : float
         Smoothing of the surface voxels (voxels).
+    holes : int
+        Silhouettes that may miss an occupied voxel (:meth:`Carver.carve_with_holes`).
+    person_only : bool
+        Keep only the largest 3D component of every frame.
+    hole_reach : float
+        With ``holes``: a silhouette may miss a voxel only within this share of its image
+        diagonal (0: anywhere).
 
     Attributes
     ----------
@@ -98,7 +105,7 @@ class MeasurementStage:
 
     def __init__(self, rig, grid: VoxelGrid, backgrounds: Mapping, config: SilhouetteConfig | None
                  = None, *, min_views: int | None = None, sigma: float = 1.0, holes: int = 0,
-                 person_only: bool = False):
+                 person_only: bool = False, hole_reach: float = 0.0):
         self.cameras = list(rig)
         self.names = [c.name for c in self.cameras]
         missing = [n for n in self.names if n not in backgrounds]
@@ -120,6 +127,9 @@ class MeasurementStage:
             raise InputError("holes", f"must be an integer between 0 and {max(n_cam - 2, 0)}, "
                                       f"got {holes!r}")
         self.holes = int(holes)
+        if not 0 <= hole_reach <= 1:
+            raise InputError("hole_reach", f"must be between 0 and 1, got {hole_reach!r}")
+        self.hole_reach = float(hole_reach)
         self.person_only = bool(person_only)
         self.carver = Carver(self.cameras, grid)
 
@@ -173,7 +183,8 @@ class MeasurementStage:
         if self.holes and self.min_views is None:
             occ = self.carver.carve_with_holes(
                 [m if u else np.zeros(m.shape, bool) for m, u in zip(masks, use, strict=True)],
-                self.holes, ignore=[i for i, u in enumerate(use) if not u])
+                self.holes, ignore=[i for i, u in enumerate(use) if not u],
+                reach=self.hole_reach)
         else:
             occ = self._carve_rule(masks, use, excluded)
         if self.person_only:

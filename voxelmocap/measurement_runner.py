@@ -207,8 +207,14 @@ class MeasurementRunner(MeasurementStage):
         elif placement == "person" and not self.adaptive:
             if samples is None:
                 samples = self._sample_frames(seq, GRID_FRAMES)
+            else:
+                # the plate's samples, thinned: each one segments every camera (with GrabCut
+                # on a learnt plate's never-seen pixels), and 20 spread frames place the box
+                n = len(next(iter(samples.values())))
+                pick = np.unique(np.linspace(0, n - 1, min(n, GRID_FRAMES)).round().astype(int))
+                samples = {c: v[pick] for c, v in samples.items()}
             stage = MeasurementStage(rig, coarse, backgrounds, silhouette, holes=holes,
-                                     person_only=True)
+                                     person_only=True, hole_reach=mc.carve_hole_reach)
             grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
                                bytes_per_voxel=8.0)
             self._say(f"grid placed around the person ({mc.grid_margin:g} mm margin): "
@@ -218,7 +224,8 @@ class MeasurementRunner(MeasurementStage):
         else:
             grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
         super().__init__(rig, grid, backgrounds, silhouette, min_views=mc.min_views,
-                         sigma=mc.surface_sigma, holes=holes, person_only=person_only)
+                         sigma=mc.surface_sigma, holes=holes, person_only=person_only,
+                         hole_reach=mc.carve_hole_reach)
         self.sequence = seq
 
     def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:

@@ -469,9 +469,14 @@ def segment(image, background, config: SilhouetteConfig | None = None, *,
             shadow_ncc=config.shadow_ncc, shadow_window=config.shadow_window)
     else:
         raw = background.foreground(image)
-    return clean_mask(raw, open_radius=config.open_radius, close_radius=config.close_radius,
+    mask = clean_mask(raw, open_radius=config.open_radius, close_radius=config.close_radius,
                       min_area=config.min_area, largest_only=config.largest_only,
                       fill_holes=config.fill_holes)
+    refine = getattr(background, "refine", None)
+    if refine is not None:
+        # a learnt plate decides its never-seen pixels from this frame (background.py)
+        mask = refine(image, mask, config)
+    return mask
 
 
 def build_backgrounds(config: SilhouetteConfig, cameras: Iterable[str],
