@@ -333,7 +333,8 @@ class InitConfig:
     settle_steps: int = 5
     #: search each starting pose's four limbs over their whole legal ranges on the first frame
     #: (``voxelmocap.limb_search``; starts found from the voxels only): a start fitted to the
-    #: extremities often has a limb in a wrong optimum the annealing never leaves
+    #: extremities often has a limb in a wrong optimum the annealing never leaves. Measured on
+    #: the five clips without the answer (seed 0, σ²_DO 0.1): 84.1 mm without, 62.0 mm with
     limb_sweep: bool = True
 
 
