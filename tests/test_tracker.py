@@ -331,7 +331,9 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
     truth[[11, 17]] = (1.4, 0.6)                       # left shoulder flexed, elbow bent
     grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
     seen = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
-    cfg = with_overrides(SMALL, **{"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01})
+    # voxels of the model itself: the paper's σ²_DO (see test_partitioned.py)
+    cfg = with_overrides(SMALL, **{"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
+                                   "likelihood.variances": (0.01, 0.01, 0.1, 0.1)})
     tracker = BodyTracker(MODEL, cfg, seed=0)
     tracker.start("test", MODEL.default_state())
     record = tracker.step(seen)

@@ -95,7 +95,11 @@ def test_hierarchical_tracker_recovers_a_pose_rendered_from_the_model():
                                               "filter.trunk_particles": 200,
                                               "filter.limb_particles": 100,
                                               "filter.limb_layers": 3,
-                                              "filter.refine_evaluations": 30})
+                                              "filter.refine_evaluations": 30,
+                                              # voxels of the model itself: its own overlaps
+                                              # are all there is, so the paper's σ²_DO (the
+                                              # tracker's 0.1 allows for real bodies' joints)
+                                              "likelihood.variances": (0.01, 0.01, 0.1, 0.1)})
     tracker = BodyTracker(model, config, seed=0)
     rng = np.random.default_rng(4)
     start = model.clip((truth + np.r_[rng.choice([-50.0, 50.0], 3),
