@@ -323,10 +323,11 @@ class InitConfig:
     #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult,
     #: ``fitted`` also fits the limb lengths to the voxels of the multi-start frames and tracks
     #: them again with the fitted body (``voxelmocap.body_size``; needs ``multistart_frames``).
-    #: Five clips without the answer: fitted 74.1 mm against 76.4 (100 frames, seed 0), 77.8
-    #: against 78.3 (40 frames, 2 seeds) — within seed noise, so not the default
+    #: Five clips without the answer (100 frames, 3 seeds, σ²_DO 0.1 and the limb sweep):
+    #: fitted 60.5 mm / MMTA 91.2 % against voxels 63.8 mm / 88.4 % (walk 61.9 → 52.4, combo
+    #: 62.1 → 56.3, box 56.8 → 58.6); with σ²_DO 0.01 it was within seed noise
     #: (docs/benchmarks.md)
-    body: str = _choice("voxels", "average", "fitted", default="voxels")
+    body: str = _choice("voxels", "average", "fitted", default="fitted")
     #: extra filter steps on the first frame before it is recorded, so that a rough start (an
     #: extremity fit, a standing pose) settles onto the first frame's voxels instead of being
     #: dragged along by the motion while still far off; the estimate history is then cleared
