@@ -24,7 +24,7 @@ from .body.shapes import PART_NAMES
 from .body.state import STATE_INDEX
 from .tracking.partitioned import Partition
 
-__all__ = ["BODY_PARTITIONS", "body_partitions", "log_likelihood_for", "pitch_prior"]
+__all__ = ["BODY_PARTITIONS", "LIMBS", "body_partitions", "log_likelihood_for", "pitch_prior"]
 
 
 def _dims(*names):
@@ -38,16 +38,27 @@ def _parts(*names):
 #: Partitions moving more parts than this are scored by the full kernel (same values).
 PARTIAL_MAX_PARTS = 2
 
+def _limb(prefix: str, joint: str, bend: str, upper: str, lower: str):
+    return (_dims(*(f"{prefix}_{joint}_{a}" for a in ("flex", "abd", "rot")), f"{prefix}_{bend}"),
+            _parts(f"{prefix}_{upper}", f"{prefix}_{lower}"))
+
+
+#: name → (its four state dimensions, its two parts): the limbs of the hierarchical search and
+#: of the global limb search (:mod:`voxelmocap.limb_search`), legs first.
+LIMBS: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
+    "l_leg": _limb("l", "hip", "knee", "thigh", "shin"),
+    "r_leg": _limb("r", "hip", "knee", "thigh", "shin"),
+    "l_arm": _limb("l", "shoulder", "elbow", "upper_arm", "forearm"),
+    "r_arm": _limb("r", "shoulder", "elbow", "upper_arm", "forearm"),
+}
+
 #: (dimensions, parts they move) of each partition, in search order; parts ``()`` = all.
 BODY_PARTITIONS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
     (_dims("root_x", "root_y", "root_z", "root_yaw", "root_pitch", "root_roll", "waist_flex",
            "waist_side", "waist_twist", "neck_flex", "neck_side"), ()),
-    (_dims("l_hip_flex", "l_hip_abd", "l_hip_rot", "l_knee", "r_hip_flex", "r_hip_abd",
-           "r_hip_rot", "r_knee"), _parts("l_thigh", "l_shin", "r_thigh", "r_shin")),
-    (_dims("l_shoulder_flex", "l_shoulder_abd", "l_shoulder_rot", "l_elbow"),
-     _parts("l_upper_arm", "l_forearm")),
-    (_dims("r_shoulder_flex", "r_shoulder_abd", "r_shoulder_rot", "r_elbow"),
-     _parts("r_upper_arm", "r_forearm")),
+    (LIMBS["l_leg"][0] + LIMBS["r_leg"][0], LIMBS["l_leg"][1] + LIMBS["r_leg"][1]),
+    LIMBS["l_arm"],
+    LIMBS["r_arm"],
 )
 
 

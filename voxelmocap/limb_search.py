@@ -28,28 +28,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .body.shapes import PART_NAMES
-from .body.state import STATE_INDEX
+from .hierarchy import LIMBS
 from .likelihood import DEFAULT_VARIANCES
 from .partial_likelihood import PartialScorer
 from .tracking.refine import pattern_search
 
 __all__ = ["LIMBS", "sweep_limbs"]
-
-
-def _limb(prefix: str, joint: str, bend: str, upper: str, lower: str):
-    dims = tuple(STATE_INDEX[f"{prefix}_{joint}_{a}"] for a in ("flex", "abd", "rot")) + \
-        (STATE_INDEX[f"{prefix}_{bend}"],)
-    return dims, (PART_NAMES.index(f"{prefix}_{upper}"), PART_NAMES.index(f"{prefix}_{lower}"))
-
-
-#: name → (its four state dimensions, its two parts), legs first (they hold more voxels).
-LIMBS: dict[str, tuple[tuple[int, ...], tuple[int, int]]] = {
-    "l_leg": _limb("l", "hip", "knee", "thigh", "shin"),
-    "r_leg": _limb("r", "hip", "knee", "thigh", "shin"),
-    "l_arm": _limb("l", "shoulder", "elbow", "upper_arm", "forearm"),
-    "r_arm": _limb("r", "shoulder", "elbow", "upper_arm", "forearm"),
-}
 
 
 def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, samples: int = 1024,

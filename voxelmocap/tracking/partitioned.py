@@ -212,24 +212,28 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
             centre = (self.dynamics.drift(x, self._history) if layer == 0 else x)[:, dims]
             x = x.copy()
             x[:, dims] = truncated_normal(centre, std, lo, hi, self.rng)
-            n_explore = round(self.explore * part.particles) if layer == 0 and k > 0 else 0
-            if n_explore:
+            if layer == 0 and k > 0:
                 # a share drawn over the whole legal box of this partition: a few dimensions
                 # are small enough to search globally, so a limb stuck in a local optimum can
-                # jump to a better one
-                idx = self.rng.choice(part.particles, n_explore, replace=False)
-                x[np.ix_(idx, dims)] = self.rng.uniform(lo, hi, (n_explore, dims.size))
-            n_proposed = (round(self._proposal_share * part.particles)
-                          if layer == 0 and k > 0 and self._proposal is not None else 0)
-            if n_proposed:
-                idx = self.rng.choice(part.particles, n_proposed, replace=False)
-                x[np.ix_(idx, dims)] = np.clip(self._proposal(n_proposed, self.rng)[:, dims],
-                                               lo, hi)
+                # jump to a better one; and a share from the frame's proposal
+                self._substitute(x, dims, self.explore,
+                                 lambda n: self.rng.uniform(lo, hi, (n, dims.size)))
+                if self._proposal is not None:
+                    self._substitute(x, dims, self._proposal_share, lambda n: np.clip(
+                        self._proposal(n, self.rng)[:, dims], lo, hi))
             lls = self._evaluate(ll, x)
             beta = find_beta(lls, self.survival, beta_max=self.beta_max)
             w = Weights(tempered_log_weights(lls, beta))
             ess[pos + layer], betas[pos + layer] = w.ess, beta
         return x, w, lls
+
+    def _substitute(self, x, dims, share, draw) -> None:
+        """Replace ``dims`` of ``round(share · P)`` random particles of ``x`` (P, D) in place
+        by ``draw(n)`` (n, len(dims))."""
+        n = round(share * x.shape[0])
+        if n:
+            idx = self.rng.choice(x.shape[0], n, replace=False)
+            x[np.ix_(idx, dims)] = draw(n)
 
     def __repr__(self) -> str:
         groups = ", ".join(f"{len(p.dims)}d×{p.layers}×{p.particles}" for p in self.partitions)
