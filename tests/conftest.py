@@ -48,3 +48,47 @@ def walk_dataset(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("walk")
     return generate(root, motion="walk", frames=8, cameras=WALK_CAMERAS, progress=False,
                     background_frames=20, seed=3)
+
+
+@pytest.fixture(scope="session")
+def walk_without_answer(walk_dataset, tmp_path_factory):
+    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links, not copies)."""
+    import os
+
+    root = tmp_path_factory.mktemp("noanswer")
+    for path in walk_dataset.rglob("*"):
+        rel = path.relative_to(walk_dataset)
+        if "Mocap_Data" in rel.parts:
+            continue
+        if path.is_dir():
+            (root / rel).mkdir(parents=True, exist_ok=True)
+        else:
+            (root / rel).parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(path, root / rel)
+    return root
+
+
+@pytest.fixture
+def interrupted_then_resumed(monkeypatch):
+    """``run(data, out, **kwargs)``: track ``S1/Walking_1`` of ``data`` into ``out``, interrupted
+    (KeyboardInterrupt) at the third frame written, then resumed; returns the resumed outcome."""
+    from voxelmocap.io.results import ResultWriter
+    from voxelmocap.pipeline import track_sequence
+
+    def run(data, out, **kwargs):
+        real_append = ResultWriter.append
+        calls = {"n": 0}
+
+        def interrupted(self, *args, **kw):
+            calls["n"] += 1
+            if calls["n"] == 3:
+                raise KeyboardInterrupt
+            real_append(self, *args, **kw)
+
+        monkeypatch.setattr(ResultWriter, "append", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            track_sequence(data, "S1", "Walking_1", out, **kwargs)
+        monkeypatch.setattr(ResultWriter, "append", real_append)
+        return track_sequence(data, "S1", "Walking_1", out, resume=True, **kwargs)
+
+    return run

@@ -145,27 +145,9 @@ def test_fit_keeps_lengths_not_asked_for():
         fit_body_dimensions(observations, poses, truth, keys=("elbow",))
 
 
-@pytest.fixture(scope="module")
-def walk_without_answer(walk_dataset, tmp_path_factory):
-    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links)."""
-    import os
-
-    root = tmp_path_factory.mktemp("noanswer_body")
-    for path in walk_dataset.rglob("*"):
-        rel = path.relative_to(walk_dataset)
-        if "Mocap_Data" in rel.parts:
-            continue
-        if path.is_dir():
-            (root / rel).mkdir(parents=True, exist_ok=True)
-        else:
-            (root / rel).parent.mkdir(parents=True, exist_ok=True)
-            os.symlink(path, root / rel)
-    return root
-
-
 def test_track_with_a_fitted_body_records_it_and_resumes(walk_without_answer, tmp_path,
-                                                         monkeypatch):
-    from voxelmocap.io.results import ResultWriter, read_result
+                                                         interrupted_then_resumed):
+    from voxelmocap.io.results import read_result
     from voxelmocap.pipeline import track_sequence
 
     config = with_overrides(TrackConfig(), **{
@@ -183,21 +165,7 @@ def test_track_with_a_fitted_body_records_it_and_resumes(walk_without_answer, tm
     assert len(result) == 6
     # Killed while writing the re-tracked first frames, then resumed: the same frames, the
     # same body (re-read from the file, not fitted again).
-    real_append = ResultWriter.append
-    calls = {"n": 0}
-
-    def interrupted(self, *args, **kw):
-        calls["n"] += 1
-        if calls["n"] == 3:
-            raise KeyboardInterrupt
-        real_append(self, *args, **kw)
-
-    monkeypatch.setattr(ResultWriter, "append", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part", **kwargs)
-    monkeypatch.setattr(ResultWriter, "append", real_append)
-    resumed = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part",
-                             resume=True, **kwargs)
+    resumed = interrupted_then_resumed(walk_without_answer, tmp_path / "part", **kwargs)
     assert resumed.resumed_from == 2
     b = read_result(resumed.result_path)
     np.testing.assert_array_equal(result.state, b.state)

@@ -299,28 +299,9 @@ def test_first_frame_compilation_is_announced(walk_dataset, tmp_path, monkeypatc
     assert pipeline._kernels_cached()
 
 
-@pytest.fixture(scope="module")
-def walk_without_answer(walk_dataset, tmp_path_factory):
-    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links, not copies)."""
-    import os
-
-    root = tmp_path_factory.mktemp("noanswer")
-    for path in walk_dataset.rglob("*"):
-        rel = path.relative_to(walk_dataset)
-        if "Mocap_Data" in rel.parts:
-            continue
-        if path.is_dir():
-            (root / rel).mkdir(parents=True, exist_ok=True)
-        else:
-            (root / rel).parent.mkdir(parents=True, exist_ok=True)
-            os.symlink(path, root / rel)
-    return root
-
-
 def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_answer, tmp_path,
-                                                  monkeypatch):
+                                                  interrupted_then_resumed):
     from voxelmocap.io.body_file import read_body_file
-    from voxelmocap.io.results import ResultWriter
 
     config = with_overrides(SMALL, **{"init.multistart_frames": 3})
     kwargs = dict(config=config, frames="1:6", seed=2, progress=False, log=lambda *_: None)
@@ -339,21 +320,7 @@ def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_ans
     assert seq.scores.frames == 6
     # Interrupted after two frames (inside the writing of the kept start's first three frames)
     # and resumed: each frame was written with its checkpoint, the body measured is reused.
-    real_append = ResultWriter.append
-    calls = {"n": 0}
-
-    def interrupted(self, *args, **kw):
-        calls["n"] += 1
-        if calls["n"] == 3:
-            raise KeyboardInterrupt
-        real_append(self, *args, **kw)
-
-    monkeypatch.setattr(ResultWriter, "append", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part", **kwargs)
-    monkeypatch.setattr(ResultWriter, "append", real_append)
-    resumed = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "part",
-                             resume=True, **kwargs)
+    resumed = interrupted_then_resumed(walk_without_answer, tmp_path / "part", **kwargs)
     assert resumed.resumed_from == 2
     b = read_result(resumed.result_path)
     np.testing.assert_array_equal(result.state, b.state)
