@@ -80,8 +80,10 @@ def main() -> None:
     parser.add_argument("--init", default="auto", choices=["auto", "extremities", "voxels"],
                         help="init.method (auto: the ground truth with --with-answer, else "
                              "extremities; voxels: the first method, centroid + yaw search)")
-    parser.add_argument("--body", default="voxels", choices=["voxels", "average"],
-                        help="init.body: the body's size without a body file")
+    parser.add_argument("--body", default=TrackConfig().init.body,
+                        choices=["voxels", "average", "fitted"],
+                        help="init.body: the body's size without a body file (default: the "
+                             "package's)")
     parser.add_argument("--hypotheses", type=int, default=4, help="init.hypotheses")
     parser.add_argument("--multistart", type=int, default=None,
                         help="init.multistart_frames (default: the config's, 10)")
