@@ -11,10 +11,13 @@ the tracker has already estimated (with the height-scaled average): it maximises
 log-likelihood (:func:`voxelmocap.likelihood.log_likelihood`, the tracker's own kernel) over one
 factor per length (left and right alike) by compass search
 (:func:`voxelmocap.tracking.refine.pattern_search`), alternating with a compass search of each
-frame's pose under the current lengths, so that lengths and poses stay consistent. Bent knees and
-elbows make lengths observable; frames spread over the first ones are used. The factors are
-bounded to :data:`FACTOR_RANGES` (a plausible adult range around the average), the widths stay
-those of the average adult at the voxel height.
+frame's pose under the current lengths, so that lengths and poses stay consistent. Each candidate
+body is scored with the poses re-aimed at the same elbows, wrists, knees and ankles
+(:func:`voxelmocap.body.retarget`): with the angles held, a narrower shoulder would swing the arm
+into the chest and never win, and the fitted shoulders stayed at the average adult's (1.4–1.6
+times the benchmark subjects'). Bent knees and elbows make lengths observable; frames spread over
+the first ones are used. The factors are bounded to :data:`FACTOR_RANGES` (a plausible adult
+range around the average), the widths stay those of the average adult at the voxel height.
 
 :func:`refit_start` is the tracker's side: fit on the frames tracked so far, then track those
 frames again from the fitted first pose with the fitted body, so that every recorded frame comes
@@ -35,7 +38,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .body import BodyModel
+from .body import BodyModel, retarget
 from .body.shapes import ANKLE_HEIGHT_SHARE, BodyDimensions
 from .errors import InputError
 from .likelihood import DEFAULT_VARIANCES, log_likelihood_from_scores, part_counts, scores_from_counts
@@ -303,7 +306,7 @@ def fit_body_dimensions(observations, states, base: BodyDimensions, *,
                         variances=DEFAULT_VARIANCES, rounds: int = 3,
                         length_evaluations: int = 200, pose_evaluations: int = 300,
                         keep_height: bool = True, keys=DEFAULT_FIT_KEYS,
-                        coverage: float = 0.0) -> BodyFit:
+                        coverage: float = 0.0, retarget_poses: bool = True) -> BodyFit:
     """Fit the skeleton lengths (and re-fit the poses) to the voxels of a few frames.
 
     Each round runs a compass search over the factors of :data:`FITTED_KEYS` (bounded by
@@ -336,6 +339,11 @@ def fit_body_dimensions(observations, states, base: BodyDimensions, *,
     coverage : float
         Weight of a term for the occupied voxels no part contains (:func:`_coverage_ll`), added
         to the likelihood for this fit only (0: the tracker's likelihood alone).
+    retarget_poses : bool
+        Score each candidate body with the poses re-aimed at the same elbows, wrists, knees and
+        ankles (:func:`voxelmocap.body.retarget`) instead of with the same angles: a narrower
+        shoulder then keeps the arm on the arm's voxels rather than swinging it into the chest,
+        so joint offsets and lengths can move without their poses following one step behind.
 
     Returns
     -------
@@ -361,20 +369,28 @@ def fit_body_dimensions(observations, states, base: BodyDimensions, *,
     f_total = start
     for _ in range(rounds):
         held = states
+        held_model = BodyModel(dimensions_from_factors(base, factors, keep_height=keep_height))
 
-        def body_ll(cands, held=held):
-            return np.array([_frames_ll(observations, held,
-                                        dimensions_from_factors(base, c, keep_height=keep_height),
-                                        variances, _ROOT_SHIFTS, coverage)[0].sum()
-                             for c in cands])
+        def poses_for(model, held=held, held_model=held_model):
+            return retarget(held_model, model, held) if retarget_poses else held.copy()
 
+        def body_ll(cands):
+            out = []
+            for c in cands:
+                dims_c = dimensions_from_factors(base, c, keep_height=keep_height)
+                out.append(_frames_ll(observations, poses_for(BodyModel(dims_c)), dims_c,
+                                      variances, _ROOT_SHIFTS, coverage)[0].sum())
+            return np.array(out)
+
+        if retarget_poses:  # the held poses' own score, re-aimed like every candidate's
+            f_total = float(body_ll([factors])[0])
         factors, f_total, n = compass_combined(body_ll, factors, steps, low=lo, high=hi,
                                                max_evaluations=length_evaluations, f0=f_total)
         used += n * len(states) * len(_ROOT_SHIFTS)
         dims = dimensions_from_factors(base, factors, keep_height=keep_height)
         model = BodyModel(dims)
-        states = held.copy()
-        states[:, 2] += _frames_ll(observations, held, dims, variances, _ROOT_SHIFTS,
+        states = poses_for(model)
+        states[:, 2] += _frames_ll(observations, states, dims, variances, _ROOT_SHIFTS,
                                    coverage)[1]
         total = 0.0
         new = np.empty_like(states)

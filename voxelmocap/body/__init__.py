@@ -13,7 +13,7 @@
 (1, 15, 3)
 """
 
-from .fit import analytic_state, fit_to_landmarks
+from .fit import analytic_state, fit_to_landmarks, retarget
 from .kinematics import Kinematics, forward_kinematics
 from .landmarks import ENDPOINT_JOINTS, joints_to_endpoints
 from .model import BodyModel, PartGeometry
@@ -47,5 +47,6 @@ __all__ = [
     "forward_kinematics",
     "frustum_volume",
     "joints_to_endpoints",
+    "retarget",
     "wrap_heading",
 ]

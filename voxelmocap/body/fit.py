@@ -43,9 +43,10 @@ from .kinematics import (
     forward_kinematics,
     rotation_x,
     rotation_y,
+    rotation_z,
 )
 
-__all__ = ["analytic_state", "fit_to_landmarks"]
+__all__ = ["analytic_state", "fit_to_landmarks", "retarget"]
 
 
 def _unit(v):
@@ -174,3 +175,51 @@ def fit_to_landmarks(model, landmarks, *, initial=None, max_nfev: int = 2000) ->
         if sol.cost < best_cost:
             best, best_cost = sol.x, sol.cost
     return np.clip(best, low, high)
+
+
+#: (state columns of flex, abd, rot, hinge; top, mid, end joints; side sign; hinge sign; parent)
+_LIMBS = (((11, 12, 13, 17), (L_SHOULDER, L_ELBOW, L_WRIST), 1.0, 1.0, "torso"),
+          ((14, 15, 16, 18), (R_SHOULDER, R_ELBOW, R_WRIST), -1.0, 1.0, "torso"),
+          ((19, 20, 21, 25), (L_HIP, L_KNEE, L_ANKLE), 1.0, -1.0, "root"),
+          ((22, 23, 24, 26), (R_HIP, R_KNEE, R_ANKLE), -1.0, -1.0, "root"))
+
+
+def retarget(model_from, model_to, states) -> np.ndarray:
+    """The same poses on another skeleton, each limb re-aimed at the elbows / knees and wrists /
+    ankles it reached on the first.
+
+    Root, trunk and head angles are kept; a limb whose shoulder (hip) moved with the new
+    skeleton's offsets or torso length points its upper segment from the new joint at the old
+    elbow (knee), its lower segment along the old one. Changing a joint offset with the angles
+    held would swing the whole limb sideways instead (what a body fit with the poses held
+    compares against).
+
+    Parameters
+    ----------
+    model_from, model_to : BodyModel
+        The skeleton the states were estimated with, and the new one.
+    states : (P, 27) array_like
+        Legal states of ``model_from``.
+
+    Returns
+    -------
+    (P, 27) float64 ndarray
+        Legal states of ``model_to`` (clipped into its ranges).
+    """
+    x = np.array(model_from.check(states, legal=False), dtype=float)
+    old = forward_kinematics(x, model_from.dimensions).joints
+    new = forward_kinematics(x, model_to.dimensions).joints
+    lo, hi = model_to.low, model_to.high
+    out = x.copy()
+    for p in range(len(x)):
+        root = rotation_z(x[p, 3]) @ rotation_x(-x[p, 4]) @ rotation_y(x[p, 5])
+        parents = {"root": root,
+                   "torso": root @ rotation_x(-x[p, 6]) @ rotation_y(x[p, 7]) @ rotation_z(x[p, 8])}
+        for idx, (top, mid, end), sign, hinge_sign, parent in _LIMBS:
+            idx = list(idx)
+            angles = _limb_angles(parents[parent], new[p, top], old[p, mid], old[p, end], sign,
+                                  hinge_sign, lo[idx], hi[idx])
+            if np.sin(angles[3]) <= 1e-6:   # a straight limb: its twist is free, keep it
+                angles[2] = x[p, idx[2]]
+            out[p, idx] = angles
+    return np.clip(out, lo, hi)
