@@ -5,16 +5,22 @@ measured once (:class:`voxelmocap.measurement_runner.MeasurementRunner`: silhoue
 the camera images the image cues read), then the product's tracker
 (:class:`voxelmocap.tracker.BodyTracker`) runs once per cue setting on the same observations,
 started from frame 1's ground truth, with the same filter (layers × particles, so the same number
-of likelihood evaluations) and seed. Printed per run: μ (mm), MMTA (%, δ = 100 mm), µs per
-particle of the likelihood (the filter's likelihood seconds / evaluations). ``--costs`` also times
-each cue alone on the same 300 particles of frame 1 (best of 7 interleaved repeats), side by
-side in one process.
+of likelihood evaluations) and seed. Every setting searches all dimensions at once
+(``filter.search = "joint"``, which image cues force in the product) except ``voxel_hier``, the
+voxel likelihood with the default hierarchical search (``--hier KEY=VALUE`` sizes its partitions,
+e.g. ``filter.trunk_particles=125`` for 600 evaluations per frame at 4 × 150). Printed per run:
+μ (mm), MMTA (%, δ = 100 mm), MMTP (mm), µs per particle of the likelihood (the filter's
+likelihood seconds / evaluations) and evaluations per frame. ``--costs`` also times each cue
+alone on the same 300 particles of frame 1 (best of 7 interleaved repeats), side by side in one
+process.
 
 Examples::
 
     python scripts/bench_cues.py --clips S3/Box_1 --cameras 7 --frames 20
     python scripts/bench_cues.py --frames 30 --layers 4 --particles 150 --json out.json
     python scripts/bench_cues.py --costs --clips S1/Walking_1
+    python scripts/bench_cues.py --frames 30 --seeds 0,1,2 --settings voxel,fused4,voxel_hier,roi \
+        --first-seed-only voxel_hier,roi --hier filter.trunk_particles=125 --json out.json
 
 Settings are named cue selections (``SETTINGS``); a setting needing voxels is skipped below two
 cameras (the product refuses it), and ``fused`` then means the image cues' fusion (``image``).
@@ -52,7 +58,14 @@ SETTINGS: dict[str, dict[str, float]] = {
     "fused_all": {"voxel": 1.0, "edges": 0.1, "dt": 1.0, "roi": 1.0, "blob3d": 1.0,
                   "uniform": 0.2},
     "image": {"edges": 0.1, "roi": 1.0, "dt": 1.0},
+    # the voxel likelihood with the product's partitioned search (``filter.search =
+    # "hierarchical"``); every other setting searches all 27 dimensions at once (image cues
+    # force that in the product: ``tracker.searches_hierarchically``)
+    "voxel_hier": {"voxel": 1.0},
 }
+
+#: settings searched partition by partition (the rest: ``filter.search = "joint"``)
+HIERARCHICAL = {"voxel_hier"}
 
 
 def observations(root: Path, clip: str, cameras, frames: int):
@@ -80,14 +93,20 @@ def observations(root: Path, clip: str, cameras, frames: int):
     return numbers, obs, gt, model
 
 
-def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="ground_truth"):
-    """Track the observations with one cue selection; (μ, MMTA, µs per particle)."""
+def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="ground_truth",
+          search="joint", overrides=None):
+    """Track the observations with one cue selection.
+
+    Returns (μ mm, MMTA %, MMTP mm, µs per particle, likelihood evaluations). ``search`` is the
+    filter's search (``joint`` or ``hierarchical``); ``overrides`` more ``with_overrides`` keys.
+    """
     from voxelmocap.evaluation import evaluate_sequence
     from voxelmocap.tracker import BodyTracker, ground_truth_landmarks
 
     config = with_overrides(TrackConfig(), **{"filter.layers": layers,
                                               "filter.particles": particles,
-                                              "init.method": init})
+                                              "filter.search": search,
+                                              "init.method": init, **(overrides or {})})
     config = dataclasses.replace(config, cues=CuesConfig(weights=dict(weights)))
     tracker = BodyTracker(model, config, seed=seed)
     endpoints, spent, evals = [], 0.0, 0
@@ -100,7 +119,7 @@ def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="gr
         evals += tracker.filter.step_evaluations
     rows = gt.index_of(numbers)
     scores, _ = evaluate_sequence(np.array(endpoints), gt.endpoints[rows], gt.enabled[rows])
-    return scores.mu_mm, scores.mmta_pct, 1e6 * spent / max(evals, 1), evals
+    return scores.mu_mm, scores.mmta_pct, scores.mmtp_mm, 1e6 * spent / max(evals, 1), evals
 
 
 def costs(obs, gt, model, numbers, n_particles=300, repeats=7):
@@ -137,8 +156,9 @@ def costs(obs, gt, model, numbers, n_particles=300, repeats=7):
 
 
 def table(paths) -> str:
-    """Markdown tables (one per camera count) of JSON-lines results: μ / MMTA per clip (mean
-    over the seeds present), µs per particle (mean over clips)."""
+    """Markdown tables (one per camera count) of JSON-lines results: μ / MMTA / MMTP per clip
+    (mean over the seeds present; MMTP only in rows that have it), µs per particle (median over
+    the row's runs: a clip's first run also pays the observation's one-off preparation)."""
     rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines() if line]
     # a (clip, cameras, setting, seed) run measured twice is the same run (deterministic): once
     rows = list({(r["clip"], r["cameras"], r["setting"], r["seed"]): r for r in rows}.values())
@@ -146,12 +166,14 @@ def table(paths) -> str:
     clips = [c for c in CLIPS if any(r["clip"] == c for r in rows)]
     for n_cam in sorted({r["cameras"] for r in rows}, reverse=True):
         sub = [r for r in rows if r["cameras"] == n_cam]
-        out.append(f"\n{n_cam} camera{'s' if n_cam > 1 else ''}: μ (mm) / MMTA (%)\n")
+        with_mmtp = all("mmtp_mm" in r for r in sub)
+        what = "μ (mm) / MMTA (%) / MMTP (mm)" if with_mmtp else "μ (mm) / MMTA (%)"
+        out.append(f"\n{n_cam} camera{'s' if n_cam > 1 else ''}: {what}\n")
         out.append("| cues | " + " | ".join(c.split("/")[1] for c in clips)
-                   + " | mean μ | µs/particle |")
-        out.append("|---" * (len(clips) + 3) + "|")
+                   + " | mean μ | mean MMTA | µs/particle |")
+        out.append("|---" * (len(clips) + 4) + "|")
         for name in [s for s in SETTINGS if any(r["setting"] == s for r in sub)]:
-            cells, mus, costs = [], [], []
+            cells, mus, mmtas, costs = [], [], [], []
             for clip in clips:
                 got = [r for r in sub if r["setting"] == name and r["clip"] == clip]
                 if not got:
@@ -160,14 +182,19 @@ def table(paths) -> str:
                 mu = float(np.mean([r["mu_mm"] for r in got]))
                 mmta = float(np.mean([r["mmta_pct"] for r in got]))
                 mus.append(mu)
+                mmtas.append(mmta)
                 costs += [r["us_per_particle"] for r in got]
                 seeds = f" ({len(got)} seeds)" if len(got) > 1 else ""
-                cells.append(f"{mu:.1f} / {mmta:.0f}{seeds}")
+                mmtp = (f" / {np.mean([r['mmtp_mm'] for r in got]):.0f}" if with_mmtp else "")
+                cells.append(f"{mu:.1f} / {mmta:.0f}{mmtp}{seeds}")
             weights = next(r["weights"] for r in sub if r["setting"] == name)
             label = ", ".join(f"{k}" if v == 1 else f"{k}={v:g}" for k, v in weights.items())
             label = name if label == name else f"{name}: {label}"
+            if any(r.get("search") == "hierarchical" for r in sub if r["setting"] == name):
+                label += " (hierarchical search)"
             out.append(f"| {label} | " + " | ".join(cells)
-                       + f" | {np.mean(mus):.1f} | {np.mean(costs):.0f} |")
+                       + f" | {np.mean(mus):.1f} | {np.mean(mmtas):.0f} "
+                         f"| {np.median(costs):.0f} |")
     return "\n".join(out)
 
 
@@ -185,6 +212,11 @@ def main(argv=None) -> int:
                     help="start: frame 1's ground truth (default), or the voxels' extremities "
                          "(a mixture of the likeliest starts; the ROI/skin/uniform references "
                          "are then learnt from that start)")
+    ap.add_argument("--first-seed-only", default="",
+                    help="comma-separated settings run with the first seed only")
+    ap.add_argument("--hier", action="append", default=[], metavar="KEY=VALUE",
+                    help="config override for the hierarchical settings only (repeatable), "
+                         "e.g. filter.trunk_particles=120 to match the joint search's budget")
     ap.add_argument("--costs", action="store_true", help="time each cue alone on frame 1")
     ap.add_argument("--json", type=Path, help="append the rows (JSON lines) to this file")
     ap.add_argument("--table", nargs="+", type=Path, help="print Markdown tables of JSON-lines "
@@ -195,11 +227,16 @@ def main(argv=None) -> int:
         return 0
     from voxelmocap.cues import CUES
 
+    hier_overrides = {}
+    for item in args.hier:
+        key, _, value = item.partition("=")
+        hier_overrides[key] = json.loads(value)
     print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load "
           f"{open('/proc/loadavg').read().split()[0]}, {args.frames} frames, {args.layers} layers "
           f"× {args.particles} particles, seeds {args.seeds}, start: {args.init}")
     print(f"{'clip':16s} {'cams':>4s} {'setting':10s} {'mu_mm':>7s} {'mmta%':>6s} "
-          f"{'us/part':>8s}")
+          f"{'mmtp':>6s} {'us/part':>8s} {'evals/f':>7s}")
+    warm = False
     for clip in args.clips.split(","):
         for cam_key in args.cameras.split(","):
             cams = CAMERA_SETS[cam_key]
@@ -209,25 +246,40 @@ def main(argv=None) -> int:
                 for name, us in costs(obs, gt, model, numbers).items():
                     print(f"{clip:16s} {n_cam:4d} cost {name:10s} {us:8.1f} us/particle")
                     sys.stdout.flush()
-            for seed in (int(v) for v in args.seeds.split(",")):
+            seeds = [int(v) for v in args.seeds.split(",")]
+            if not warm:   # compile the kernels before anything is timed (once per process)
+                for name in SETTINGS:
+                    if n_cam >= 2 or not any(CUES[c].needs_voxels for c in SETTINGS[name]):
+                        track(numbers[:2], obs[:2], gt, model, SETTINGS[name], layers=2,
+                              particles=20, seed=0, init=args.init,
+                              search="hierarchical" if name in HIERARCHICAL else "joint")
+                warm = True
+            once = set(filter(None, args.first_seed_only.split(",")))
+            for seed in seeds:
                 for name in [n for n in args.settings.split(",") if n]:
+                    if name in once and seed != seeds[0]:
+                        continue
                     weights = SETTINGS[name]
                     if n_cam < 2 and name == "fused":   # monocular: the image cues' fusion
                         weights = SETTINGS["image"]
                     if n_cam < 2 and any(CUES[c].needs_voxels for c in weights):
                         continue
-                    mu, mmta, us, evals = track(numbers, obs, gt, model, weights,
-                                                layers=args.layers, particles=args.particles,
-                                                seed=seed, init=args.init)
-                    print(f"{clip:16s} {n_cam:4d} {name:10s} {mu:7.1f} {mmta:6.1f} {us:8.1f} "
-                          f"seed {seed}")
+                    hier = name in HIERARCHICAL
+                    mu, mmta, mmtp, us, evals = track(
+                        numbers, obs, gt, model, weights, layers=args.layers,
+                        particles=args.particles, seed=seed, init=args.init,
+                        search="hierarchical" if hier else "joint",
+                        overrides=hier_overrides if hier else None)
+                    print(f"{clip:16s} {n_cam:4d} {name:10s} {mu:7.1f} {mmta:6.1f} {mmtp:6.1f} "
+                          f"{us:8.1f} {evals / len(numbers):7.0f} seed {seed}")
                     sys.stdout.flush()
                     if args.json:
                         with args.json.open("a") as f:
                             f.write(json.dumps({
                                 "clip": clip, "cameras": n_cam, "setting": name,
                                 "weights": weights, "mu_mm": mu, "mmta_pct": mmta,
-                                "us_per_particle": us, "evaluations": evals,
+                                "mmtp_mm": mmtp, "us_per_particle": us, "evaluations": evals,
+                                "search": "hierarchical" if hier else "joint",
                                 "frames": args.frames, "layers": args.layers,
                                 "particles": args.particles, "seed": seed,
                                 "init": args.init}) + "\n")
