@@ -384,6 +384,7 @@ def fit_body_dimensions(observations, states, base: BodyDimensions, *,
 
         if retarget_poses:  # the held poses' own score, re-aimed like every candidate's
             f_total = float(body_ll([factors])[0])
+            used += len(states) * len(_ROOT_SHIFTS)
         factors, f_total, n = compass_combined(body_ll, factors, steps, low=lo, high=hi,
                                                max_evaluations=length_evaluations, f0=f_total)
         used += n * len(states) * len(_ROOT_SHIFTS)
