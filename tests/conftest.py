@@ -50,14 +50,13 @@ def walk_dataset(tmp_path_factory) -> Path:
                     background_frames=20, seed=3)
 
 
-@pytest.fixture(scope="session")
-def walk_without_answer(walk_dataset, tmp_path_factory):
-    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links, not copies)."""
+def _link_without_answer(source, root):
+    """Link the data set ``source`` into ``root`` without ``Mocap_Data`` (no ground truth, no
+    body file); returns ``root``."""
     import os
 
-    root = tmp_path_factory.mktemp("noanswer")
-    for path in walk_dataset.rglob("*"):
-        rel = path.relative_to(walk_dataset)
+    for path in source.rglob("*"):
+        rel = path.relative_to(source)
         if "Mocap_Data" in rel.parts:
             continue
         if path.is_dir():
@@ -68,10 +67,22 @@ def walk_without_answer(walk_dataset, tmp_path_factory):
     return root
 
 
+@pytest.fixture(scope="session")
+def link_without_answer():
+    """``link(source, root)``: a data set's links without ``Mocap_Data`` (see above)."""
+    return _link_without_answer
+
+
+@pytest.fixture(scope="session")
+def walk_without_answer(walk_dataset, tmp_path_factory):
+    """The rendered walk without ``Mocap_Data``: no ground truth, no body file (links, not copies)."""
+    return _link_without_answer(walk_dataset, tmp_path_factory.mktemp("noanswer"))
+
+
 @pytest.fixture
-def interrupted_then_resumed(monkeypatch):
+def interrupt_at_third_frame(monkeypatch):
     """``run(data, out, **kwargs)``: track ``S1/Walking_1`` of ``data`` into ``out``, interrupted
-    (KeyboardInterrupt) at the third frame written, then resumed; returns the resumed outcome."""
+    (KeyboardInterrupt) when the third frame is written."""
     from voxelmocap.io.results import ResultWriter
     from voxelmocap.pipeline import track_sequence
 
@@ -89,6 +100,18 @@ def interrupted_then_resumed(monkeypatch):
         with pytest.raises(KeyboardInterrupt):
             track_sequence(data, "S1", "Walking_1", out, **kwargs)
         monkeypatch.setattr(ResultWriter, "append", real_append)
+
+    return run
+
+
+@pytest.fixture
+def interrupted_then_resumed(interrupt_at_third_frame):
+    """``run(data, out, **kwargs)``: :func:`interrupt_at_third_frame`, then resumed; returns the
+    resumed outcome."""
+    from voxelmocap.pipeline import track_sequence
+
+    def run(data, out, **kwargs):
+        interrupt_at_third_frame(data, out, **kwargs)
         return track_sequence(data, "S1", "Walking_1", out, resume=True, **kwargs)
 
     return run

@@ -48,28 +48,15 @@ def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
 
 
 @pytest.mark.parametrize("method", ["gaussian", "mog2"])
-def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, monkeypatch, method):
-    from voxelmocap.io.results import ResultWriter
-
+def test_resume_equals_an_uninterrupted_run(walk_dataset, tmp_path, interrupt_at_third_frame,
+                                           method):
     config = with_overrides(SMALL, **{"measurement.silhouette": {"method": method}})
     if method == "mog2":  # the adaptive model must be replayed on resume
         config = with_overrides(config, **{"filter.layers": 1, "filter.particles": 40})
     full = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "full", config=config,
                           frames="1:5", seed=7, progress=False, log=lambda *_: None)
-    real_append = ResultWriter.append
-    calls = {"n": 0}
-
-    def interrupted(self, *args, **kwargs):
-        calls["n"] += 1
-        if calls["n"] == 3:
-            raise KeyboardInterrupt
-        real_append(self, *args, **kwargs)
-
-    monkeypatch.setattr(ResultWriter, "append", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "part", config=config,
-                       frames="1:5", seed=7, progress=False, log=lambda *_: None)
-    monkeypatch.setattr(ResultWriter, "append", real_append)
+    interrupt_at_third_frame(walk_dataset, tmp_path / "part", config=config, frames="1:5",
+                             seed=7, progress=False, log=lambda *_: None)
     partial = read_result(tmp_path / "part" / "S1" / "Walking_1.h5")
     assert len(partial) == 2 and not partial.attrs["complete"]
     with pytest.raises(InputError, match="use --resume"):

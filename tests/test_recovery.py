@@ -349,23 +349,13 @@ def test_recovery_settings_are_checked():
             config_from_toml(f"[recovery]\n{text}\n", source="cfg.toml")
 
 
-def test_frames_without_a_person_before_the_start_wait_for_it(absence_dataset, tmp_path):
+def test_frames_without_a_person_before_the_start_wait_for_it(absence_dataset, tmp_path,
+                                                              link_without_answer):
     """Frames 4–6 are absent: a run of frames 4–10 without the answer starts at frame 7."""
-    import os
-
     from voxelmocap.io.results import read_result
     from voxelmocap.pipeline import track_sequence
 
-    stripped = tmp_path / "data"
-    for path in absence_dataset.rglob("*"):
-        rel = path.relative_to(absence_dataset)
-        if "Mocap_Data" in rel.parts:
-            continue
-        if path.is_dir():
-            (stripped / rel).mkdir(parents=True, exist_ok=True)
-        else:
-            (stripped / rel).parent.mkdir(parents=True, exist_ok=True)
-            os.symlink(path, stripped / rel)
+    stripped = link_without_answer(absence_dataset, tmp_path / "data")
     config = with_overrides(ABSENCE_CONFIG, **{"init.multistart_frames": 2})
     outcome = track_sequence(stripped, "S1", "Walking_1", tmp_path / "run", config=config,
                              frames="4:10", seed=0, progress=False, log=lambda *_: None)
