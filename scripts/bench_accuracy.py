@@ -33,6 +33,8 @@ CLIPS = (
     ("dataset-2_wave-right-hand_normal_001.bvh", "Gestures", 1.0),
     ("01_01.bvh", "Combo", 2.0),
 )
+#: subject → sequence of each rendered clip (``S<k>`` renders the k-th of :data:`CLIPS`)
+SEQUENCES = {f"S{k + 1}": f"{action}_1" for k, (_clip, action, _start) in enumerate(CLIPS)}
 
 #: Canton-Ferrer et al. 2009, Table 1 (HumanEva, 7 cameras, 20 mm, 6 × 600, δ = 100 mm).
 PAPER = {"Walking": (96.52, 41.64, 72.05, 79.55), "Jog": (130.34, 62.01, 92.21, 68.24),

@@ -15,13 +15,12 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from bench_accuracy import SEQUENCES as CLIPS
 
 from voxelmocap.body.shapes import MAY_BE_ZERO, BodyDimensions
 from voxelmocap.body_size import FITTED_KEYS, dimensions_from_json
 from voxelmocap.io.body_file import read_body_file
 from voxelmocap.io.results import read_result
-
-CLIPS = {"S1": "Walking_1", "S2": "Jog_1", "S3": "Box_1", "S4": "Gestures_1", "S5": "Combo_1"}
 
 
 def mean(dims, key) -> float:

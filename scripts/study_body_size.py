@@ -16,6 +16,7 @@ import argparse
 import time
 
 import numpy as np
+from bench_accuracy import SEQUENCES as CLIPS
 
 from voxelmocap.body import BodyModel, fit_to_landmarks
 from voxelmocap.body_size import FITTED_KEYS, fit_body_dimensions, pick_frames
@@ -24,8 +25,6 @@ from voxelmocap.io.body_file import read_body_file
 from voxelmocap.io.sequence import open_sequence
 from voxelmocap.joints import endpoints_to_landmarks
 from voxelmocap.measurement_runner import MeasurementRunner
-
-CLIPS = {"S1": "Walking_1", "S2": "Jog_1", "S3": "Box_1", "S4": "Gestures_1", "S5": "Combo_1"}
 
 
 def length(dims, key) -> float:

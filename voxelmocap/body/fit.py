@@ -95,6 +95,13 @@ def _limb_angles(parent, top, mid, end, sign, hinge_sign, low, high):
     return best
 
 
+#: (state columns of flex, abd, rot, hinge; top, mid, end joints; side sign; hinge sign; parent)
+_LIMBS = (((11, 12, 13, 17), (L_SHOULDER, L_ELBOW, L_WRIST), 1.0, 1.0, "torso"),
+          ((14, 15, 16, 18), (R_SHOULDER, R_ELBOW, R_WRIST), -1.0, 1.0, "torso"),
+          ((19, 20, 21, 25), (L_HIP, L_KNEE, L_ANKLE), 1.0, -1.0, "root"),
+          ((22, 23, 24, 26), (R_HIP, R_KNEE, R_ANKLE), -1.0, -1.0, "root"))
+
+
 def analytic_state(model, landmarks) -> np.ndarray:
     """Closed-form state (27,) from landmarks (15, 3), clipped into the legal ranges.
 
@@ -123,13 +130,11 @@ def analytic_state(model, landmarks) -> np.ndarray:
     x[9] = -np.arctan2(-v[1], v[2])
     x[10] = np.arcsin(np.clip(v[0], -1.0, 1.0))
     lo, hi = model.low, model.high
-    for parent, (a, b, c), sign, hinge_sign, dofs, hinge in (
-            (torso, (L_SHOULDER, L_ELBOW, L_WRIST), 1.0, 1.0, 11, 17),
-            (torso, (R_SHOULDER, R_ELBOW, R_WRIST), -1.0, 1.0, 14, 18),
-            (root, (L_HIP, L_KNEE, L_ANKLE), 1.0, -1.0, 19, 25),
-            (root, (R_HIP, R_KNEE, R_ANKLE), -1.0, -1.0, 22, 26)):
-        idx = [dofs, dofs + 1, dofs + 2, hinge]
-        x[idx] = _limb_angles(parent, lm[a], lm[b], lm[c], sign, hinge_sign, lo[idx], hi[idx])
+    parents = {"torso": torso, "root": root}
+    for idx, (a, b, c), sign, hinge_sign, parent in _LIMBS:
+        idx = list(idx)
+        x[idx] = _limb_angles(parents[parent], lm[a], lm[b], lm[c], sign, hinge_sign, lo[idx],
+                              hi[idx])
     return np.clip(x, model.low, model.high)
 
 
@@ -176,12 +181,6 @@ def fit_to_landmarks(model, landmarks, *, initial=None, max_nfev: int = 2000) ->
             best, best_cost = sol.x, sol.cost
     return np.clip(best, low, high)
 
-
-#: (state columns of flex, abd, rot, hinge; top, mid, end joints; side sign; hinge sign; parent)
-_LIMBS = (((11, 12, 13, 17), (L_SHOULDER, L_ELBOW, L_WRIST), 1.0, 1.0, "torso"),
-          ((14, 15, 16, 18), (R_SHOULDER, R_ELBOW, R_WRIST), -1.0, 1.0, "torso"),
-          ((19, 20, 21, 25), (L_HIP, L_KNEE, L_ANKLE), 1.0, -1.0, "root"),
-          ((22, 23, 24, 26), (R_HIP, R_KNEE, R_ANKLE), -1.0, -1.0, "root"))
 
 
 def retarget(model_from, model_to, states) -> np.ndarray:
