@@ -41,7 +41,11 @@ writer in that folder.
 Reading. A file being written, or left by a killed run, still carries HDF5's "open for writing"
 mark: :func:`read_result` opens it in SWMR-read mode; other tools need ``h5py.File(path, "r",
 swmr=True, locking=False)`` (or ``h5clear -s``). ``--resume`` copies the committed frames into a
-fresh file, which clears the mark.
+fresh file, which clears the mark. While a writer runs, a read can overlap its flush (HDF5 then
+sees the file's end before its data) or its next commit (which may rewrite the checkpoint slot
+two commits on): :func:`read_result` reads the commit record again after the checkpoint and
+repeats a read that a running writer disturbed, so it returns the frames committed at one
+instant.
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ import fcntl
 import io
 import json
 import os
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -98,6 +103,11 @@ _CHUNK_ROWS = 64  # rows per chunk: a few kB per dataset, rewritten at most once
 _STR = h5py.string_dtype("utf-8")
 _LOCKING = False  # this module's own flock guards the file; HDF5's would block its readers
 _SCORE_NAMES = ("out", "do", "empty", "surf")
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: How long a reader keeps retrying a file whose writer moves under it (each try: milliseconds).
+_LIVE_READ_SECONDS = 5.0
+#: How long a new writer waits out readers' momentary shared locks before calling a file busy.
+_LOCK_PATIENCE_SECONDS = 0.5
 _COORDINATE_FRAME = ("world frame of the cameras' calibration: right-handed, Z up, floor at Z = 0,"
                      " lengths in mm")
 
@@ -193,12 +203,18 @@ def _try_lock(path: Path) -> int | None:
         fd = os.open(path, os.O_RDONLY)
     except FileNotFoundError:
         return None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        os.close(fd)
-        return None
-    return fd
+    deadline = time.monotonic() + _LOCK_PATIENCE_SECONDS
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return fd
+        except BlockingIOError:
+            # A reader checking for a writer holds a shared lock for microseconds; a writer
+            # holds its lock for the whole run.
+            if time.monotonic() > deadline:
+                os.close(fd)
+                return None
+        time.sleep(0.01)
 
 
 def _busy(path) -> InputError:
@@ -272,7 +288,9 @@ class ResultWriter:
 
     def read_existing(self) -> TrackResult | None:
         """The current file's committed content (read under this writer's lock), or None."""
-        return read_result(self.path) if self._fd is not None else None
+        if self._fd is None:
+            return None
+        return _read_once(self.path)  # under the lock: nobody moves it, no retrying
 
     def start(self, template=None, *, attrs: dict, state_names, part_names,
               previous: TrackResult | None = None, replace: bool = False) -> None:
@@ -501,16 +519,46 @@ def _identify(path, f) -> None:
 _H5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
 
 
+def _writer_mark(path: Path) -> bool:
+    """Whether the superblock carries HDF5's "open for writing" flags (a run writing or killed).
+
+    Superblock versions 2 and 3 (``libver="latest"``) keep the file-consistency flags in byte 11.
+    """
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(12)
+    except OSError:
+        return False
+    return len(head) == 12 and head[:8] == _HDF5_SIGNATURE and head[8] >= 2 and head[11] != 0
+
+
+def _being_written(path: Path) -> bool:
+    """Whether a :class:`ResultWriter` holds the file (its exclusive flock)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)  # closing releases the lock
+    return False
+
+
 def _open(path: Path) -> h5py.File:
     # A plain read first: in SWMR-read mode HDF5 retries every metadata read whose checksum
     # fails (up to 100 times, with growing sleeps, in case the writer was mid-write), so a
     # damaged file took minutes to refuse (found by fuzzing). Only a file whose writer is
-    # running or was killed needs SWMR-read (plain opening refuses its superblock flags).
+    # running or was killed needs SWMR-read: plain opening refuses its superblock flags, or,
+    # while the writer's flush has moved the end-of-file mark but not yet the data, calls it
+    # truncated.
     try:
         return h5py.File(path, "r", locking=_LOCKING)
     except _H5_ERRORS as exc:
         first = exc
-    if "already open for" not in str(first):  # not a writer's flags: damaged, or not HDF5
+    if not _writer_mark(path):  # damaged, or not HDF5
         raise InputError(path, f"cannot read HDF5 result file ({first})") from None
     try:
         return h5py.File(path, "r", swmr=True, locking=_LOCKING)
@@ -518,8 +566,16 @@ def _open(path: Path) -> h5py.File:
         raise InputError(path, f"cannot read HDF5 result file ({first})") from None
 
 
+class _Moved(Exception):
+    """The writer committed a frame while the file was being read."""
+
+
 def read_result(path) -> TrackResult:
     """Read the committed frames of a result file.
+
+    A file that a running ``track`` is writing reads as the frames committed at one instant: a
+    read that overlaps the writer's flush or its next commit is repeated (for up to
+    :data:`_LIVE_READ_SECONDS`).
 
     Raises
     ------
@@ -531,10 +587,36 @@ def read_result(path) -> TrackResult:
         raise InputError(path, "result file not found")
     if path.is_dir():
         raise InputError(path, "is a folder, not a result file")
+    deadline = time.monotonic() + _LIVE_READ_SECONDS
+    while True:
+        before = _identity(path)
+        try:
+            return _read_once(path)
+        except (InputError, _Moved) as exc:
+            # Retry only what a writer can cause: it runs, or it changed the file meanwhile
+            # (e.g. it closed it). A file nobody touches fails the same way every time.
+            changing = _being_written(path) or _identity(path) != before
+            if not changing or time.monotonic() > deadline:
+                if isinstance(exc, _Moved):
+                    raise InputError(path, "the running track kept changing the file while it "
+                                           "was read; try again") from None
+                raise
+        time.sleep(0.02)
+
+
+def _identity(path: Path) -> tuple | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _read_once(path: Path) -> TrackResult:
     with _open(path) as f:
         try:
             return _read(path, f)
-        except InputError:
+        except (InputError, _Moved):
             raise
         except _H5_ERRORS as exc:
             raise InputError(path, f"damaged HDF5 result file ({type(exc).__name__}: {exc})"
@@ -561,6 +643,17 @@ def _read(path: Path, f: h5py.File) -> TrackResult:
         raise InputError(path, f"damaged result file (commit says {n} frames, slot {slot}"
                                + (f"; {short[0]!r} has {lengths[short[0]]}" if short else "")
                                + ")")
+    checkpoint = None
+    if slot >= 0:  # before the rows: the writer reuses this slot two commits later
+        try:
+            checkpoint = _unpack_checkpoint(f[f"checkpoint_{slot}"][()])
+        except Exception as exc:  # any decoding failure means damage
+            raise InputError(path, f"damaged checkpoint ({type(exc).__name__}: {exc})"
+                             ) from None
+    if f.swmr_mode:  # a writer may be running: the slot was whole only if nothing was committed
+        f["commit"].refresh()
+        if not np.array_equal(f["commit"][()], commit):
+            raise _Moved
     data = {name: f[name][:n] for name in present}
     if version < 3:  # format 2 had no confidence: unknown, and every frame counted as observed
         data.setdefault("landmark_spread", np.full((n, 15), np.nan))
@@ -568,13 +661,6 @@ def _read(path: Path, f: h5py.File) -> TrackResult:
         data.setdefault("observed", np.ones(n, dtype=np.uint8))
     _check_shapes(path, data)
     data["observed"] = np.asarray(data["observed"]).astype(bool)
-    checkpoint = None
-    if slot >= 0:
-        try:
-            checkpoint = _unpack_checkpoint(f[f"checkpoint_{slot}"][()])
-        except Exception as exc:  # any decoding failure means damage
-            raise InputError(path, f"damaged checkpoint ({type(exc).__name__}: {exc})"
-                             ) from None
     attrs = {k: _attr_value(v) for k, v in f.attrs.items()}
     attrs["complete"] = bool(complete)
     return TrackResult(
