@@ -168,3 +168,24 @@ def test_no_person_in_view_is_an_empty_observation_without_warning(scene):
     obs = stage.measure({n: frames[0] for n, frames in bg_frames.items()})  # warnings are errors
     assert obs.empty and not obs.occupancy.any() and not obs.surface.any()
     assert obs.excluded == {}
+
+
+def test_prefix_kernel_equals_numpy_on_a_masked_scene():
+    """The parallel prefix-sum kernel against NumPy's quantise + cumsum, with a scene mask that
+    is not all ones and smoothed values on rounding ties (rint rounds them to even)."""
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.observation import QMAX, VoxelObservation
+
+    rng = np.random.default_rng(7)
+    grid = VoxelGrid((0.0, 0.0, 0.0), 20.0, (9, 7, 23))
+    occ = rng.random(grid.shape) < 0.3
+    scene = rng.random(grid.shape) < 0.8
+    obs = VoxelObservation(occ, grid, sigma=1.0, scene=scene)
+    ties = (np.arange(6, dtype=np.float64) + 0.5) / QMAX  # k + ½ quanta
+    obs.smoothed[0, 0, :6] = ties.astype(np.float32)
+    q = np.rint(obs.smoothed.astype(np.float64) * QMAX).astype(np.int32)
+    expect = np.zeros(grid.shape[:2] + (grid.shape[2] + 1, 3), np.int32)
+    for t, table in enumerate((scene, occ & scene, q)):
+        expect[:, :, 1:, t] = np.cumsum(table, axis=2)
+    assert np.array_equal(obs.prefix, expect)
+    assert np.array_equal(obs.smoothed_q, q)

@@ -111,6 +111,25 @@ def test_gaussian_matches_toolkit_formula():
     np.testing.assert_allclose(loglik[finite], np.log(pdf[finite]), rtol=1e-4, atol=1e-3)
 
 
+@pytest.mark.parametrize("channels", [1, 3])
+def test_one_component_kernel_equals_the_numpy_log_likelihood(channels):
+    """The fused one-component foreground kernel decides every pixel as the NumPy expression
+    (log_likelihood < threshold) does, including pixels whose log-likelihood sits on the
+    threshold, for gray and colour models and a one-component model made from toolkit pdfs."""
+    rng = np.random.default_rng(11 + channels)
+    shape = (37, 53) if channels == 1 else (37, 53, 3)
+    frames = [rng.integers(0, 256, size=shape).astype(np.uint8) for _ in range(5)]
+    bg = GaussianBackground.fit(frames, min_variance=2.0, grayscale=channels == 1)
+    img = rng.integers(0, 256, size=shape).astype(np.uint8)
+    loglik, _ = bg.log_likelihood(img)
+    for risk in (1e-3, 1.0, 1e3):
+        assert np.array_equal(bg.foreground(img, risk=risk), loglik < bg.threshold(risk))
+    # risks that put the threshold exactly on some pixels' float32 log-likelihoods
+    for value in rng.choice(loglik.ravel(), size=5):
+        risk = np.exp(-(bg.channels * np.log(256.0)) - float(value))
+        assert np.array_equal(bg.foreground(img, risk=risk), loglik < bg.threshold(risk))
+
+
 def test_gaussian_grayscale_and_bgr_input_of_a_gray_camera():
     scene = Scene(seed=3, channels=1)
     frames = scene.background_frames(30)

@@ -182,6 +182,14 @@ class GaussianBackground:
             raise InputError("background", "no background sets")
         return cls(means, variances, min_variance=min_variance)
 
+    def _pixels(self, image) -> np.ndarray:
+        """``image`` as (H, W, C) float32 in the model's channels, checked against its size."""
+        x = _as_image(image, self.channels)
+        if x.shape[:2] != self.shape:
+            raise InputError("image", f"size {x.shape[1]}x{x.shape[0]} differs from the background "
+                                      f"model's {self.shape[1]}x{self.shape[0]}")
+        return x
+
     def log_likelihood(self, image) -> tuple[np.ndarray, np.ndarray]:
         """Background log-likelihood per pixel and the most likely component.
 
@@ -197,10 +205,7 @@ class GaussianBackground:
         best : (H, W) int ndarray
             Index of the component with the largest term.
         """
-        x = _as_image(image, self.channels)
-        if x.shape[:2] != self.shape:
-            raise InputError("image", f"size {x.shape[1]}x{x.shape[0]} differs from the background "
-                                      f"model's {self.shape[1]}x{self.shape[0]}")
+        x = self._pixels(image)
         terms = np.empty((self.n_components, *self.shape), dtype=np.float32)
         for m in range(self.n_components):
             d = x - self.means[m]
@@ -237,8 +242,16 @@ class GaussianBackground:
         -------
         (H, W) bool ndarray
         """
-        loglik, best = self.log_likelihood(image)
-        mask = loglik < self.threshold(risk)
+        if self.n_components == 1:  # the common case, fused into one parallel pass
+            from ._silhouette_kernels import gaussian_foreground
+
+            mask = np.empty(self.shape, dtype=bool)
+            gaussian_foreground(self._pixels(image), self.means[0], self._inv_var[0],
+                                self._const[0], float(self.threshold(risk)), mask)
+            best = np.zeros(self.shape, dtype=np.intp)
+        else:
+            loglik, best = self.log_likelihood(image)
+            mask = loglik < self.threshold(risk)
         if shadows and (self.channels == 3 or shadow_gray):
             # only foreground pixels can turn out to be shadows: test those alone (a few percent)
             rows, cols = np.nonzero(mask)
