@@ -326,8 +326,8 @@ class InitConfig:
     #: Five clips without the answer (100 frames, 3 seeds, σ²_DO 0.1 and the limb sweep):
     #: fitted 60.5 mm / MMTA 91.2 % against voxels 63.8 mm / 88.4 % (walk 61.9 → 52.4, combo
     #: 62.1 → 56.3, box 56.8 → 58.6); with σ²_DO 0.01 it was within seed noise; with the
-    #: candidate bodies scored on re-aimed poses (``body.retarget``) 56.3 mm / 91.3 %
-    #: (docs/benchmarks.md)
+    #: candidate bodies scored on re-aimed poses (``body.retarget``) 56.3 mm / 91.3 %, and
+    #: with the fit's double-occupancy term off 54.9 mm / 91.8 % (docs/benchmarks.md)
     body: str = _choice("voxels", "average", "fitted", default="fitted")
     #: extra filter steps on the first frame before it is recorded, so that a rough start (an
     #: extremity fit, a standing pose) settles onto the first frame's voxels instead of being
