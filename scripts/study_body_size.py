@@ -39,7 +39,8 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--free-height", action="store_true")
     parser.add_argument("--coverage", type=float, default=0.0)
-    parser.add_argument("--no-do", action="store_true", help="fit without the DO term")
+    parser.add_argument("--with-do", action="store_true",
+                        help="keep the double-occupancy term in the fit (the default drops it)")
     parser.add_argument("--subjects", default=",".join(CLIPS))
     args = parser.parse_args()
     config = TrackConfig()
@@ -63,12 +64,10 @@ def main() -> None:
         model = BodyModel(base)
         states = np.array([fit_to_landmarks(model, lm) for lm in landmarks])
         t0 = time.perf_counter()
-        var = list(config.likelihood.variances)
-        if args.no_do:
-            var[1] = 1e9
-        fit = fit_body_dimensions(observations, states, base, variances=tuple(var),
+        fit = fit_body_dimensions(observations, states, base,
+                                  variances=config.likelihood.variances,
                                   rounds=args.rounds, keep_height=not args.free_height,
-                                  coverage=args.coverage)
+                                  coverage=args.coverage, double_occupancy=args.with_do)
         dt = time.perf_counter() - t0
         ratios = [length(fit.dimensions, k) / max(length(truth, k), 1e-9) for k in FITTED_KEYS]
         avg = [length(base, k) / max(length(truth, k), 1e-9) for k in FITTED_KEYS]
