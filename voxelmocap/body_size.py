@@ -15,8 +15,10 @@ frame's pose under the current lengths, so that lengths and poses stay consisten
 body is scored with the poses re-aimed at the same elbows, wrists, knees and ankles
 (:func:`voxelmocap.body.retarget`): with the angles held, a narrower shoulder would swing the arm
 into the chest and never win, and the fitted shoulders stayed at the average adult's (1.4–1.6
-times the benchmark subjects'). Bent knees and elbows make lengths observable; frames spread over
-the first ones are used. The factors are bounded to :data:`FACTOR_RANGES` (a plausible adult
+times the benchmark subjects'). The fit leaves out the likelihood's double-occupancy term: real
+bodies overlap at the shoulders (a motion-capture skeleton's shoulder joint sits inside the
+chest), and the term pushed the fitted shoulders outwards. Bent knees and elbows make lengths
+observable; frames spread over the first ones are used. The factors are bounded to :data:`FACTOR_RANGES` (a plausible adult
 range around the average), the widths stay those of the average adult at the voxel height.
 
 :func:`refit_start` is the tracker's side: fit on the frames tracked so far, then track those
