@@ -18,8 +18,9 @@ into the chest and never win, and the fitted shoulders stayed at the average adu
 times the benchmark subjects'). The fit leaves out the likelihood's double-occupancy term: real
 bodies overlap at the shoulders (a motion-capture skeleton's shoulder joint sits inside the
 chest), and the term pushed the fitted shoulders outwards. Bent knees and elbows make lengths
-observable; frames spread over the first ones are used. The factors are bounded to :data:`FACTOR_RANGES` (a plausible adult
-range around the average), the widths stay those of the average adult at the voxel height.
+observable; frames spread over the first ones are used. The factors are bounded to
+:data:`FACTOR_RANGES` (a plausible adult range around the average), the widths stay those of the
+average adult at the voxel height.
 
 :func:`refit_start` is the tracker's side: fit on the frames tracked so far, then track those
 frames again from the fitted first pose with the fitted body, so that every recorded frame comes
