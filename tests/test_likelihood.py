@@ -241,3 +241,33 @@ def test_fast_equals_reference_on_exact_ties():
     states = np.array(states)
     np.testing.assert_array_equal(part_counts(meas, model, states),
                                   part_counts_reference(meas, model, states))
+
+
+def test_coverage_term_against_the_rasterised_body():
+    """u = 1 − (Σ_parts Occ − ½ Σ_parts DO) / |V^R|, recomputed voxel by voxel from the
+    reference rasterisation (n_v parts containing voxel v): Σ_{v occupied} n_v − ½ Σ_{n_v ≥ 2} n_v;
+    the term is added to log_likelihood and is 0 at weight 0."""
+    from voxelmocap.likelihood import coverage_log_likelihood
+
+    rng = np.random.default_rng(61)
+    model = BodyModel()
+    truth = standing(model, l_elbow=40 * DEG, r_shoulder_abd=60 * DEG, r_elbow=90 * DEG)
+    occ = rasterise(model, truth, GRID) > 0
+    occ ^= rng.random(GRID.shape) < 0.01          # some voxels no body explains
+    meas = Measurement(occ, GRID, sigma=1.0)
+    states = np.stack([truth, standing(model, r_elbow=150 * DEG, r_shoulder_abd=60 * DEG),
+                       *random_legal(model, rng, 3, xy=200.0)])
+    counts = part_counts(meas, model, states)
+    expect = []
+    for x in states:
+        n = rasterise_reference(model, x, GRID).astype(np.int64)
+        covered = n[occ].sum() - 0.5 * n[n >= 2].sum()
+        u = min(max(1.0 - covered / occ.sum(), 0.0), 1.0)
+        expect.append(-0.5 * 300.0 * u * u / 0.1)
+    np.testing.assert_allclose(coverage_log_likelihood(meas, counts, 300.0), expect, rtol=1e-12)
+    plain = log_likelihood(meas, model, states)
+    np.testing.assert_allclose(log_likelihood(meas, model, states, coverage=300.0),
+                               plain + np.array(expect), rtol=1e-12)
+    assert np.all(coverage_log_likelihood(meas, counts, 0.0) == 0.0)
+    # the folded forearm leaves the true forearm's voxels uncovered: it pays for them
+    assert expect[1] < expect[0]

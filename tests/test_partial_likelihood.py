@@ -47,6 +47,8 @@ def test_limb_counts_equal_full_counts(seed, voxel):
         np.testing.assert_array_equal(scorer.counts(xs), part_counts(seen, model, xs))
         np.testing.assert_array_equal(scorer.log_likelihood(xs),
                                       log_likelihood(seen, model, xs))
+        np.testing.assert_array_equal(scorer.log_likelihood(xs, coverage=500.0),
+                                      log_likelihood(seen, model, xs, coverage=500.0))
 
 
 def test_limb_crossing_the_torso_changes_the_torso_double_occupancy():

@@ -341,3 +341,34 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
     assert wrist < 60.0, wrist
     np.testing.assert_array_equal(tracker.filter.estimate, record.state)
     assert abs(np.median(tracker.filter.particles[:, 11]) - record.state[11]) < 0.2
+
+
+def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
+    """``[likelihood] coverage`` is in the joint filter's callable, in every partition of the
+    hierarchical search (full and partial scoring) and in the limb sweep's scores: each equals
+    log_likelihood(..., coverage=w) called directly."""
+    from voxelmocap.hierarchy import BODY_PARTITIONS
+    from voxelmocap.limb_search import sweep_limbs
+
+    states, obs = walk
+    w = 250.0
+    cfg = with_overrides(TrackConfig(), **{"likelihood.coverage": w})
+    var = cfg.likelihood.variances
+    tracker = BodyTracker(MODEL, cfg, seed=0)
+    rng = np.random.default_rng(5)
+    ref = states[1]
+    xs = MODEL.clip(ref + rng.normal(0.0, 0.1, (20, 27)) * np.r_[np.full(3, 50.0), np.ones(24)])
+    expect = log_likelihood(obs[1], MODEL, xs, variances=var, coverage=w)
+    assert not np.allclose(expect, log_likelihood(obs[1], MODEL, xs, variances=var))
+    np.testing.assert_allclose(tracker.log_likelihood(obs[1])(xs), expect, rtol=1e-12)
+    factory = tracker.partition_log_likelihood(obs[1])
+    for k, (dims, _) in enumerate(BODY_PARTITIONS):
+        moved = np.repeat(ref[None], len(xs), axis=0)
+        moved[:, list(dims)] = xs[:, list(dims)]
+        np.testing.assert_allclose(factory(k, ref)(moved),
+                                   log_likelihood(obs[1], MODEL, moved, variances=var,
+                                                  coverage=w), rtol=1e-12)
+    # the start's limb sweep: the tracker's answer is the sweep's with the same weight
+    swept, _ = tracker.sweep_limbs(obs[1], xs[3][None])
+    alone, _ = sweep_limbs(obs[1], MODEL, xs[3], variances=var, coverage=w, seed=0)
+    np.testing.assert_array_equal(swept[0], alone)

@@ -44,7 +44,13 @@ import numpy as np
 from .body import BodyModel, retarget
 from .body.shapes import ANKLE_HEIGHT_SHARE, BodyDimensions
 from .errors import InputError
-from .likelihood import DEFAULT_VARIANCES, log_likelihood_from_scores, part_counts, scores_from_counts
+from .likelihood import (
+    DEFAULT_VARIANCES,
+    coverage_log_likelihood,
+    log_likelihood_from_scores,
+    part_counts,
+    scores_from_counts,
+)
 
 __all__ = ["DEFAULT_FIT_KEYS", "FACTOR_RANGES", "FITTED_KEYS", "HEIGHT_KEYS", "START_COVERAGE",
            "BodyFit", "compass_combined", "dimensions_from_factors", "dimensions_from_json",
@@ -263,20 +269,6 @@ def compass_combined(log_likelihood, x0, steps, *, low, high, max_evaluations: i
     return x, f, used
 
 
-def _coverage_ll(observation, counts, weight) -> np.ndarray:
-    """``−½ w u² / 0.1`` per particle, ``u`` the share of occupied voxels no part contains.
-
-    ``counts`` are :func:`voxelmocap.likelihood.part_counts` ``(P, parts, 6)``; the occupied
-    voxels inside parts are ``Σ Occ − ½ Σ DO`` (a voxel two parts share is counted once; shared
-    voxels are taken as occupied). The tracker's likelihood has no such term: a part shrunk into
-    the visual hull costs nothing there, so lengths alone are weakly determined.
-    """
-    total = max(int(np.count_nonzero(observation.occupancy)), 1)
-    covered = counts[..., 3].sum(axis=1) - 0.5 * counts[..., 2].sum(axis=1)
-    u = np.clip(1.0 - covered / total, 0.0, 1.0)
-    return -0.5 * weight * u * u / 0.1
-
-
 def _objective(observation, model, states, variances, coverage,
                double_occupancy=True) -> np.ndarray:
     """(P,) the tracker's voxel log-likelihood, plus the coverage term when ``coverage`` > 0;
@@ -287,7 +279,7 @@ def _objective(observation, model, states, variances, coverage,
         scores[..., 1] = 0.0
     ll = log_likelihood_from_scores(scores, variances=variances)
     if coverage:
-        ll = ll + _coverage_ll(observation, counts, coverage)
+        ll = ll + coverage_log_likelihood(observation, counts, coverage)
     return ll
 
 
@@ -347,8 +339,9 @@ def fit_body_dimensions(observations, states, base: BodyDimensions, *,
     keys : iterable of str
         The lengths fitted (of :data:`FITTED_KEYS`); the others keep ``base``'s.
     coverage : float
-        Weight of a term for the occupied voxels no part contains (:func:`_coverage_ll`), added
-        to the likelihood for this fit only (0: the tracker's likelihood alone).
+        Weight of the term for the occupied voxels no part contains
+        (:func:`voxelmocap.likelihood.coverage_log_likelihood`) in this fit (0: none; the
+        tracker's own weight is ``[likelihood] coverage``).
     retarget_poses : bool
         Score each candidate body with the poses re-aimed at the same elbows, wrists, knees and
         ankles (:func:`voxelmocap.body.retarget`) instead of with the same angles: a narrower

@@ -204,6 +204,11 @@ class LikelihoodConfig:
     #: (docs/benchmarks.md, "double occupancy"): with the answer 54.1 → 41.1 mm, without it
     #: 62.4 → 62.0 mm (MMTA 86.9 → 90.2 %), seed 0
     variances: tuple[float, float, float, float] = (0.01, 0.1, 0.1, 0.1)
+    #: weight w of the coverage term ``−½ w u² / 0.1``, u the share of occupied voxels no part
+    #: contains (``voxelmocap.likelihood.coverage_log_likelihood``): paper 002's scores judge
+    #: each part by the voxels it contains, so a limb folded into its neighbour's voxels lost
+    #: nothing for the real limb's voxels it left. 0: the paper's likelihood alone
+    coverage: float = 0.0
     #: standard deviation (degrees) of a zero-mean Gaussian prior on the root pitch, which the
     #: voxels cannot see: the hips lie on the pitch axis, so pitch + waist and hip flexion
     #: compensate exactly (docs/benchmarks.md, null direction). None: no prior
@@ -579,6 +584,8 @@ def _check_ranges(obj, prefix: str, source) -> None:
                 raise InputError(source, f"key '{prefix}.{name}' must be >= 2")
     if isinstance(obj, LikelihoodConfig) and min(obj.variances) <= 0:
         raise InputError(source, "key 'likelihood.variances' must be positive")
+    if isinstance(obj, LikelihoodConfig) and not obj.coverage >= 0:
+        raise InputError(source, f"key 'likelihood.coverage' must be >= 0, got {obj.coverage}")
     if isinstance(obj, SilhouetteConfig):
         _check_silhouette(obj, prefix, source)
     if isinstance(obj, ExportConfig):

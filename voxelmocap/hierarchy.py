@@ -92,12 +92,14 @@ def pitch_prior(states, std_deg: float | None) -> np.ndarray | float:
     return -0.5 * (pitch / np.deg2rad(std_deg)) ** 2
 
 
-def log_likelihood_for(observation, model, variances, prior_deg, k: int, reference):
+def log_likelihood_for(observation, model, variances, prior_deg, k: int, reference, *,
+                       coverage: float = 0.0):
     """Partition ``k``'s log-likelihood callable ``(P, 27) -> (P,)`` around ``reference``.
 
     Partition 0 and the leg pair are scored in full; an arm with :class:`PartialScorer` built on
     ``reference`` (:data:`PARTIAL_MAX_PARTS`).
-    The root-pitch prior (:func:`pitch_prior`) is added to both.
+    The root-pitch prior (:func:`pitch_prior`) is added to both; ``coverage`` weighs the
+    likelihood's coverage term (:func:`voxelmocap.likelihood.coverage_log_likelihood`).
     """
     from .likelihood import log_likelihood
     from .partial_likelihood import PartialScorer
@@ -108,11 +110,12 @@ def log_likelihood_for(observation, model, variances, prior_deg, k: int, referen
     # four large ones (measured: scripts/bench_tracking.py). Both give the same counts exactly.
     if not parts or len(parts) > PARTIAL_MAX_PARTS:
         def ll(states):
-            return log_likelihood(observation, model, states, variances=variances) + \
-                pitch_prior(states, prior_deg)
+            return log_likelihood(observation, model, states, variances=variances,
+                                  coverage=coverage) + pitch_prior(states, prior_deg)
         return ll
     scorer = PartialScorer(observation, model, reference, parts, dims)
 
     def ll_partial(states):
-        return scorer.log_likelihood(states, variances=variances) + pitch_prior(states, prior_deg)
+        return scorer.log_likelihood(states, variances=variances, coverage=coverage) + \
+            pitch_prior(states, prior_deg)
     return ll_partial

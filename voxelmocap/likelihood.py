@@ -62,6 +62,7 @@ __all__ = [
     "SCORE_NAMES",
     "Measurement",
     "VoxelObservation",
+    "coverage_log_likelihood",
     "log_likelihood",
     "log_likelihood_from_scores",
     "part_counts",
@@ -163,8 +164,37 @@ def log_likelihood_from_scores(scores, *, variances=DEFAULT_VARIANCES) -> np.nda
     return -0.5 * np.einsum("...pt,t->...", scores * scores, 1.0 / var)
 
 
+def coverage_log_likelihood(observation: VoxelObservation, counts, weight: float) -> np.ndarray:
+    """``−½ w u² / 0.1`` per particle, ``u`` the share of occupied voxels that no part contains.
+
+    Paper 002's scores judge each part against the voxels it contains; none sees occupied voxels
+    that the body leaves out, so a limb folded into its neighbour's voxels (or shrunk into the
+    visual hull) loses nothing for the voxels of the real limb it abandons. This term charges
+    them. ``counts`` are :func:`part_counts` ``(P, parts, 6)``; the occupied voxels inside parts
+    are ``Σ Occ − ½ Σ DO`` (exact where at most two parts share a voxel: a shared voxel is
+    counted once).
+
+    Parameters
+    ----------
+    observation : VoxelObservation
+    counts : (P, n_parts, 6) int array_like
+    weight : float
+        ``w`` (0: no term; the result is then 0 for every particle).
+
+    Returns
+    -------
+    (P,) float64 ndarray
+    """
+    counts = np.asarray(counts)
+    if not weight:
+        return np.zeros(counts.shape[0])
+    covered = counts[..., 3].sum(axis=1) - 0.5 * counts[..., 2].sum(axis=1)
+    u = np.clip(1.0 - covered / observation.n_occupied, 0.0, 1.0)
+    return -0.5 * float(weight) * u * u / 0.1
+
+
 def log_likelihood(observation: VoxelObservation, model, states, *, variances=DEFAULT_VARIANCES,
-                   clip: bool = False) -> np.ndarray:
+                   coverage: float = 0.0, clip: bool = False) -> np.ndarray:
     """Log-likelihood (up to a constant) of each particle, paper 002 eqs 7–9.
 
     Parameters
@@ -175,16 +205,21 @@ def log_likelihood(observation: VoxelObservation, model, states, *, variances=DE
         Legal states (mm, rad).
     variances : (4,) sequence of float
         ``(σ²_Out, σ²_DO, σ²_Empty, σ²_Surf)``; default the paper's (0.01, 0.01, 0.1, 0.1).
+    coverage : float
+        Weight of :func:`coverage_log_likelihood`, added (0: paper 002's likelihood alone).
     clip : bool
         Clip out-of-range states instead of raising.
 
     Returns
     -------
     (P,) float64 ndarray
-        ``−½ Σ_Y dᵀ Σ⁻¹ d`` (≤ 0; 0 is a perfect fit).
+        ``−½ Σ_Y dᵀ Σ⁻¹ d`` (≤ 0; 0 is a perfect fit), plus the coverage term.
     """
-    scores = part_scores(observation, model, states, clip=clip)
-    return log_likelihood_from_scores(scores, variances=variances)
+    counts = part_counts(observation, model, states, clip=clip)
+    ll = log_likelihood_from_scores(scores_from_counts(counts), variances=variances)
+    if coverage:
+        ll = ll + coverage_log_likelihood(observation, counts, coverage)
+    return ll
 
 
 def rasterise(model, state, grid: VoxelGrid) -> np.ndarray:

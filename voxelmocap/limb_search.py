@@ -36,7 +36,8 @@ from .tracking.refine import pattern_search
 __all__ = ["LIMBS", "sweep_limbs"]
 
 
-def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, samples: int = 1024,
+def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, coverage: float = 0.0,
+                samples: int = 1024,
                 sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0
                 ) -> tuple[np.ndarray, dict[str, float]]:
     """Search every limb over its legal box on one frame, the rest of the body held.
@@ -50,6 +51,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, sampl
         The pose to improve (legal).
     variances : 4 floats
         The likelihood's σ² (``LikelihoodConfig.variances``).
+    coverage : float
+        Weight of its coverage term (``LikelihoodConfig.coverage``).
     samples : int
         Sobol points per limb and sweep (rounded up to a power of two).
     sweeps : int
@@ -79,7 +82,7 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, sampl
             scorer = PartialScorer(observation, model, x, parts, dims)
 
             def ll(states, scorer=scorer):
-                return scorer.log_likelihood(states, variances=variances)
+                return scorer.log_likelihood(states, variances=variances, coverage=coverage)
 
             current = float(ll(x[None])[0])
             u = qmc.Sobol(len(dims), seed=seed + 7 * sweep + 97 * j).random_base2(m)

@@ -131,6 +131,11 @@ class VoxelObservation:
         self.timings["smooth"] = t2 - t1
 
     @cached_property
+    def n_occupied(self) -> int:
+        """Number of occupied voxels of ``V^R`` (at least 1, a divisor)."""
+        return max(int(np.count_nonzero(self.occupancy)), 1)
+
+    @cached_property
     def smoothed_q(self) -> np.ndarray:
         """``(nx, ny, nz)`` int32 ``round(Ṽ^S · QMAX)``."""
         return np.rint(self.smoothed.astype(np.float64) * QMAX).astype(np.int32)

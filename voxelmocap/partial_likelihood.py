@@ -33,6 +33,7 @@ from .likelihood import (
     DEFAULT_VARIANCES,
     QMAX,
     VoxelObservation,
+    coverage_log_likelihood,
     log_likelihood_from_scores,
     scores_from_counts,
 )
@@ -116,8 +117,12 @@ class PartialScorer:
         out[:, p] = moving
         return out
 
-    def log_likelihood(self, states, *, variances=DEFAULT_VARIANCES) -> np.ndarray:
+    def log_likelihood(self, states, *, variances=DEFAULT_VARIANCES,
+                       coverage: float = 0.0) -> np.ndarray:
         """(P,) log-likelihoods, equal to :func:`voxelmocap.likelihood.log_likelihood`."""
-        return log_likelihood_from_scores(scores_from_counts(self.counts(states)),
-                                          variances=variances)
+        counts = self.counts(states)
+        ll = log_likelihood_from_scores(scores_from_counts(counts), variances=variances)
+        if coverage:
+            ll = ll + coverage_log_likelihood(self.observation, counts, coverage)
+        return ll
 

@@ -224,7 +224,8 @@ def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
         dynamics=build_dynamics(model, fc), **fc.filter_options())
 
 
-def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36) -> np.ndarray:
+def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36,
+                              coverage: float = 0.0) -> np.ndarray:
     """A standing pose at the voxel blob's centroid, facing the best of ``n_yaw`` headings.
 
     Parameters
@@ -236,6 +237,8 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36)
         The likelihood's σ².
     n_yaw : int
         Headings tried, evenly spread over the full turn.
+    coverage : float
+        Weight of the likelihood's coverage term.
 
     Returns
     -------
@@ -261,7 +264,8 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36)
     yaw_i = list(model.state_names).index("root_yaw")
     candidates = np.repeat(base[None], n_yaw, axis=0)
     candidates[:, yaw_i] = np.linspace(-np.pi, np.pi, n_yaw, endpoint=False)
-    scores = log_likelihood(measurement, model, candidates, variances=variances)
+    scores = log_likelihood(measurement, model, candidates, variances=variances,
+                            coverage=coverage)
     return candidates[int(np.argmax(scores))]
 
 
@@ -367,6 +371,8 @@ class BodyTracker:
         self.model = model
         self.config = config or TrackConfig()
         self.variances = self.config.likelihood.variances
+        #: weight of the coverage term (``[likelihood] coverage``)
+        self.coverage = self.config.likelihood.coverage
         if noise_std is None:
             self.noise_std = noise_profile(model, self.config)
         else:
@@ -379,7 +385,8 @@ class BodyTracker:
         from .cues import CueSet
 
         #: the likelihood terms and their weights (``[cues]``; default the voxel likelihood)
-        self.cues = CueSet(model, self.config.cues, variances=self.variances)
+        self.cues = CueSet(model, self.config.cues,
+                           voxel={"variances": self.variances, "coverage": self.coverage})
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
         self._settle = 0  # settling steps still due on the next frame (see settle)
@@ -423,7 +430,8 @@ class BodyTracker:
                     fit_to_landmarks(self.model, np.asarray(ground_truth, dtype=float)))
         if method == "voxels":
             phrase = f"the voxels of {which} (centroid + yaw search)"
-            states = initial_state_from_voxels(observation, self.model, self.variances)
+            states = initial_state_from_voxels(observation, self.model, self.variances,
+                                               coverage=self.coverage)
         else:
             from .detect import find_extremities
             from .initialise import initial_pose
@@ -446,7 +454,7 @@ class BodyTracker:
         from .limb_search import sweep_limbs
 
         new, gains = sweep_limbs(observation, self.model, est[0], variances=self.variances,
-                                 sweeps=1, seed=self.filter.frame)
+                                 coverage=self.coverage, sweeps=1, seed=self.filter.frame)
         if sum(gains.values()) > 0:
             self.filter.move_estimate(new)
             return new[None]
@@ -463,7 +471,7 @@ class BodyTracker:
         moved = 0
         for k in range(len(out)):
             out[k], gains = sweep_limbs(observation, self.model, out[k], variances=self.variances,
-                                        seed=k)
+                                        coverage=self.coverage, seed=k)
             moved += sum(g > 0 for g in gains.values())
         return out.reshape(states.shape), moved
 
@@ -548,7 +556,8 @@ class BodyTracker:
         def factory(k, reference):
             t0 = time.perf_counter()
             inner = log_likelihood_for(observation, self.model, self.variances,
-                                       self.config.likelihood.root_pitch_prior_deg, k, reference)
+                                       self.config.likelihood.root_pitch_prior_deg, k, reference,
+                                       coverage=self.coverage)
             if spent is not None:
                 spent[0] += time.perf_counter() - t0
 

@@ -76,8 +76,9 @@ class CueSet:
     model : BodyModel
     config : voxelmocap.config.CuesConfig
         ``weights`` selects the cues; the other fields are their parameters.
-    variances : (4,) sequence of float, optional
-        The voxel likelihood's σ² (``[likelihood] variances``).
+    voxel : dict, optional
+        Keyword arguments of the voxel cue's :func:`voxelmocap.likelihood.log_likelihood`:
+        ``variances`` (``[likelihood] variances``) and ``coverage`` (``[likelihood] coverage``).
 
     Attributes
     ----------
@@ -86,13 +87,13 @@ class CueSet:
     cues : dict of str to Cue
     """
 
-    def __init__(self, model, config, *, variances=None):
+    def __init__(self, model, config, *, voxel=None):
         check_weights(dict(config.weights), "cues")
         self.model = model
         self.config = config
         self.names = tuple(config.weights)
         self.weights = np.array([float(config.weights[n]) for n in self.names])
-        self.cues = {n: CUES[n](model, config, variances) for n in self.names}
+        self.cues = {n: CUES[n](model, config, voxel) for n in self.names}
         self._frame: tuple[object, CueFrame | None] | None = None
 
     @property
@@ -199,8 +200,7 @@ class CueSet:
             if cams is not None:
                 self.check_cameras(len(cams), [c.name for c in cams])
 
-            variances = self.cues["voxel"].variances
-            kw = {} if variances is None else {"variances": variances}
+            kw = self.cues["voxel"].voxel
             return lambda states: log_likelihood(observation, self.model, states, **kw)
         self.prepare(observation)
         if self.needs_reference and reference is not None:

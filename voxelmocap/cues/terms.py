@@ -117,10 +117,12 @@ class Cue:
     #: needs reference appearances (:meth:`learn`)
     needs_reference = False
 
-    def __init__(self, model, config, variances=None):
+    def __init__(self, model, config, voxel=None):
         self.model = model
         self.config = config
-        self.variances = variances
+        #: keyword arguments of :func:`voxelmocap.likelihood.log_likelihood` (variances,
+        #: coverage) for the voxel cue; None: its defaults
+        self.voxel = dict(voxel or {})
         self.learnt = False
 
     def learn(self, frame, views: Views) -> None:
@@ -149,8 +151,7 @@ class VoxelCue(Cue):
     def __call__(self, frame, views):
         from ..likelihood import log_likelihood
 
-        kw = {} if self.variances is None else {"variances": self.variances}
-        return log_likelihood(frame.observation, self.model, views.states, **kw)
+        return log_likelihood(frame.observation, self.model, views.states, **self.voxel)
 
 
 class EdgeCue(Cue):
