@@ -372,3 +372,28 @@ def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
     swept, _ = tracker.sweep_limbs(obs[1], xs[3][None])
     alone, _ = sweep_limbs(obs[1], MODEL, xs[3], variances=var, coverage=w, seed=0)
     np.testing.assert_array_equal(swept[0], alone)
+
+
+def test_the_start_is_scored_without_the_coverage_term(walk, monkeypatch):
+    """initial_state (voxel start, extremity hypotheses, limb sweep) never evaluates the
+    coverage term; the tracking callables afterwards do."""
+    from voxelmocap import likelihood, partial_likelihood
+
+    states, obs = walk
+    cfg = with_overrides(TrackConfig(), **{"likelihood.coverage": 250.0,
+                                           "init.method": "extremities"})
+    tracker = BodyTracker(MODEL, cfg, seed=0)
+    calls = []
+    real = likelihood.coverage_log_likelihood
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(likelihood, "coverage_log_likelihood", counted)
+    monkeypatch.setattr(partial_likelihood, "coverage_log_likelihood", counted)
+    phrase, start = tracker.initial_state(obs[0])
+    assert "limbs searched" in phrase and calls == []
+    assert tracker.coverage == 250.0
+    tracker.log_likelihood(obs[0])(np.atleast_2d(start))
+    assert calls

@@ -121,8 +121,9 @@ class Cue:
         self.model = model
         self.config = config
         #: keyword arguments of :func:`voxelmocap.likelihood.log_likelihood` (variances,
-        #: coverage) for the voxel cue; None: its defaults
-        self.voxel = dict(voxel or {})
+        #: coverage) for the voxel cue, read at every call (the tracker owns the dict and may
+        #: change the coverage for its start); None: the function's defaults
+        self.voxel = {} if voxel is None else voxel
         self.learnt = False
 
     def learn(self, frame, views: Views) -> None:
