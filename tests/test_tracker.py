@@ -78,7 +78,8 @@ def test_tracker_equals_the_filter_it_assembles(walk):
     pf.initialise(fit_to_landmarks(MODEL, gt), SMALL.init.spread * noise_profile(MODEL, SMALL))
     for record, o in zip(records, obs, strict=True):
         est = pf.step(lambda x, o=o: log_likelihood(o, MODEL, x,
-                                                    variances=SMALL.likelihood.variances))
+                                                    variances=SMALL.likelihood.variances,
+                                                    coverage=SMALL.likelihood.coverage))
         np.testing.assert_array_equal(record.state, MODEL.clip(est[None])[0])
 
 
@@ -331,14 +332,23 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
     truth[[11, 17]] = (1.4, 0.6)                       # left shoulder flexed, elbow bent
     grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
     seen = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
-    # voxels of the model itself: the paper's σ²_DO (see test_partitioned.py)
+    # voxels of the model itself: the paper's σ²_DO (see test_partitioned.py) and the paper's
+    # likelihood alone — with the coverage term the 40-particle step after the sweep spreads the
+    # estimate (wrist 113 mm); the sweep itself finds the arm with it too (checked below)
     cfg = with_overrides(SMALL, **{"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
-                                   "likelihood.variances": (0.01, 0.01, 0.1, 0.1)})
+                                   "likelihood.variances": (0.01, 0.01, 0.1, 0.1),
+                                   "likelihood.coverage": 0.0})
     tracker = BodyTracker(MODEL, cfg, seed=0)
     tracker.start("test", MODEL.default_state())
     record = tracker.step(seen)
     wrist = np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4])
     assert wrist < 60.0, wrist
+    from voxelmocap.limb_search import sweep_limbs
+
+    found, _ = sweep_limbs(seen, MODEL, MODEL.default_state(), variances=(0.01, 0.01, 0.1, 0.1),
+                           coverage=TrackConfig().likelihood.coverage, sweeps=1)
+    assert np.linalg.norm(MODEL.landmarks(found[None])[0, 4]
+                          - MODEL.landmarks(truth[None])[0, 4]) < 60.0
     np.testing.assert_array_equal(tracker.filter.estimate, record.state)
     assert abs(np.median(tracker.filter.particles[:, 11]) - record.state[11]) < 0.2
 
@@ -379,7 +389,7 @@ def test_the_start_is_scored_without_the_coverage_term(walk, monkeypatch):
     coverage term; the tracking callables afterwards do."""
     from voxelmocap import likelihood, partial_likelihood
 
-    states, obs = walk
+    _, obs = walk
     cfg = with_overrides(TrackConfig(), **{"likelihood.coverage": 250.0,
                                            "init.method": "extremities"})
     tracker = BodyTracker(MODEL, cfg, seed=0)
