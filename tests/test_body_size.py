@@ -112,31 +112,41 @@ def _cone_frames(truth, n_frames=4, seed=0):
     return [VoxelObservation(rasterise(model, x[None], grid) > 0, grid) for x in poses], poses
 
 
+def _cone_case(factors):
+    """A cone body with the given length factors of the average adult (the truth), the average
+    adult of its height (the fit's start), the truth's rasterised frames, and the poses a tracker
+    with the average body finds there (the average fitted to the true landmarks by IK)."""
+    truth = dimensions_from_factors(BodyDimensions.average(1700.0), np.asarray(factors))
+    base = BodyDimensions.average(truth.height)
+    observations, true_poses = _cone_frames(truth)
+    poses = np.array([fit_to_landmarks(BodyModel(base), lm)
+                      for lm in BodyModel(truth).landmarks(true_poses)])
+    return truth, base, observations, poses
+
+
+def _length_errors(dims, truth) -> dict:
+    """|fitted − true| (mm, mean of left and right) of every fitted length."""
+    return {k: abs(np.mean(getattr(dims, k)) - np.mean(getattr(truth, k))) for k in FITTED_KEYS}
+
+
 def test_fit_recovers_the_lengths_of_a_rendered_cone_body():
     # Independent truth: a cone body with known proportions far from the average adult's,
     # rasterised in four poses; the fit starts from the average adult of the same height and
     # from the poses a tracker with that body finds (the average adult fitted to the true
     # landmarks by inverse kinematics), not from the true angles.
-    factors = np.array([0.93, 1.15, 0.8, 1.6, 1.15, 0.3, 1.06, 0.86, 0.9, 1.06])
-    truth = dimensions_from_factors(BodyDimensions.average(1700.0), factors)
-    base = BodyDimensions.average(truth.height)
-    observations, true_poses = _cone_frames(truth)
-    poses = np.array([fit_to_landmarks(BodyModel(base), lm)
-                      for lm in BodyModel(truth).landmarks(true_poses)])
-
-    def errors(dims):
-        return {k: abs(np.mean(getattr(dims, k)) - np.mean(getattr(truth, k))) for k in FITTED_KEYS}
+    truth, base, observations, poses = _cone_case([0.93, 1.15, 0.8, 1.6, 1.15, 0.3, 1.06, 0.86,
+                                                   0.9, 1.06])
 
     fit = fit_body_dimensions(observations, poses, base, keys=FITTED_KEYS, coverage=10.0)
     held = fit_body_dimensions(observations, poses, base, keys=FITTED_KEYS, coverage=10.0,
                                retarget_poses=False)
     assert fit.log_likelihood > fit.start_log_likelihood
-    err, before = errors(fit.dimensions), errors(base)
+    err, before = _length_errors(fit.dimensions, truth), _length_errors(base, truth)
     # mm at 20 mm voxels (measured: max 29, sum 99; with the DO term in the fit: max 28, sum
     # 138; the poses held instead: max 50, sum 203; the average adult: max 78, sum 336)
     assert max(err.values()) < 35.0, err
     assert sum(err.values()) < sum(before.values()) / 2, (err, before)
-    assert sum(err.values()) < sum(errors(held.dimensions).values()), err
+    assert sum(err.values()) < sum(_length_errors(held.dimensions, truth).values()), err
     assert fit.dimensions.height == pytest.approx(base.height)
     assert fit.states.shape == poses.shape
     assert np.allclose(fit.factors[FITTED_KEYS.index("thigh")],
@@ -148,18 +158,13 @@ def test_fit_without_double_occupancy_finds_shoulders_inside_the_chest():
     motion-capture skeletons put it) overlap the chest in the rendered truth itself; the DO term
     then pushes the fitted shoulders outwards. Measured at 20 mm: shoulder error 0.5 mm without
     DO, 42 mm with; all lengths summed 128 vs 214 mm."""
-    factors = np.array([0.98, 1.25, 0.62, 1.4, 0.92, 0.15, 0.97, 0.83, 0.84, 1.05])
-    truth = dimensions_from_factors(BodyDimensions.average(1700.0), factors)
-    base = BodyDimensions.average(truth.height)
-    observations, true_poses = _cone_frames(truth)
-    poses = np.array([fit_to_landmarks(BodyModel(base), lm)
-                      for lm in BodyModel(truth).landmarks(true_poses)])
+    truth, base, observations, poses = _cone_case([0.98, 1.25, 0.62, 1.4, 0.92, 0.15, 0.97, 0.83,
+                                                   0.84, 1.05])
     err = {}
     for do in (False, True):
         fit = fit_body_dimensions(observations, poses, base, keys=FITTED_KEYS, coverage=10.0,
                                   double_occupancy=do)
-        err[do] = {k: abs(np.mean(getattr(fit.dimensions, k)) - np.mean(getattr(truth, k)))
-                   for k in FITTED_KEYS}
+        err[do] = _length_errors(fit.dimensions, truth)
     assert err[False]["shoulder_offset"] < 10.0 < err[True]["shoulder_offset"], err
     assert sum(err[False].values()) < sum(err[True].values()), err
 

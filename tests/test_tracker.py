@@ -387,7 +387,7 @@ def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
 def test_the_start_is_scored_without_the_coverage_term(walk, monkeypatch):
     """initial_state (voxel start, extremity hypotheses, limb sweep) never evaluates the
     coverage term; the tracking callables afterwards do."""
-    from voxelmocap import likelihood, partial_likelihood
+    from voxelmocap import likelihood
 
     _, obs = walk
     cfg = with_overrides(TrackConfig(), **{"likelihood.coverage": 250.0,
@@ -400,8 +400,7 @@ def test_the_start_is_scored_without_the_coverage_term(walk, monkeypatch):
         calls.append(1)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(likelihood, "coverage_log_likelihood", counted)
-    monkeypatch.setattr(partial_likelihood, "coverage_log_likelihood", counted)
+    monkeypatch.setattr(likelihood, "coverage_log_likelihood", counted)  # the full and partial paths
     phrase, start = tracker.initial_state(obs[0])
     assert "limbs searched" in phrase and calls == []
     assert tracker.coverage == 250.0

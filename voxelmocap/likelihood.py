@@ -64,6 +64,7 @@ __all__ = [
     "VoxelObservation",
     "coverage_log_likelihood",
     "log_likelihood",
+    "log_likelihood_from_counts",
     "log_likelihood_from_scores",
     "part_counts",
     "part_counts_reference",
@@ -193,6 +194,16 @@ def coverage_log_likelihood(observation: VoxelObservation, counts, weight: float
     return -0.5 * float(weight) * u * u / 0.1
 
 
+def log_likelihood_from_counts(observation: VoxelObservation, counts, *,
+                               variances=DEFAULT_VARIANCES, coverage: float = 0.0) -> np.ndarray:
+    """(P,) :func:`log_likelihood` from :func:`part_counts` ``(P, n_parts, 6)`` (whichever kernel
+    counted them: the full one or the partial re-scoring)."""
+    ll = log_likelihood_from_scores(scores_from_counts(counts), variances=variances)
+    if coverage:
+        ll = ll + coverage_log_likelihood(observation, counts, coverage)
+    return ll
+
+
 def log_likelihood(observation: VoxelObservation, model, states, *, variances=DEFAULT_VARIANCES,
                    coverage: float = 0.0, clip: bool = False) -> np.ndarray:
     """Log-likelihood (up to a constant) of each particle, paper 002 eqs 7–9.
@@ -215,11 +226,9 @@ def log_likelihood(observation: VoxelObservation, model, states, *, variances=DE
     (P,) float64 ndarray
         ``−½ Σ_Y dᵀ Σ⁻¹ d`` (≤ 0; 0 is a perfect fit), plus the coverage term.
     """
-    counts = part_counts(observation, model, states, clip=clip)
-    ll = log_likelihood_from_scores(scores_from_counts(counts), variances=variances)
-    if coverage:
-        ll = ll + coverage_log_likelihood(observation, counts, coverage)
-    return ll
+    return log_likelihood_from_counts(observation, part_counts(observation, model, states,
+                                                               clip=clip),
+                                      variances=variances, coverage=coverage)
 
 
 def rasterise(model, state, grid: VoxelGrid) -> np.ndarray:

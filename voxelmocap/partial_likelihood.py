@@ -33,9 +33,7 @@ from .likelihood import (
     DEFAULT_VARIANCES,
     QMAX,
     VoxelObservation,
-    coverage_log_likelihood,
-    log_likelihood_from_scores,
-    scores_from_counts,
+    log_likelihood_from_counts,
 )
 
 __all__ = ["PartialScorer"]
@@ -120,9 +118,6 @@ class PartialScorer:
     def log_likelihood(self, states, *, variances=DEFAULT_VARIANCES,
                        coverage: float = 0.0) -> np.ndarray:
         """(P,) log-likelihoods, equal to :func:`voxelmocap.likelihood.log_likelihood`."""
-        counts = self.counts(states)
-        ll = log_likelihood_from_scores(scores_from_counts(counts), variances=variances)
-        if coverage:
-            ll = ll + coverage_log_likelihood(self.observation, counts, coverage)
-        return ll
+        return log_likelihood_from_counts(self.observation, self.counts(states),
+                                          variances=variances, coverage=coverage)
 

@@ -242,25 +242,27 @@ class GaussianBackground:
         -------
         (H, W) bool ndarray
         """
+        pixels = self._pixels(image)  # converted once, for the test and the shadows
         if self.n_components == 1:  # the common case, fused into one parallel pass
             from ._silhouette_kernels import gaussian_foreground
 
             mask = np.empty(self.shape, dtype=bool)
-            gaussian_foreground(self._pixels(image), self.means[0], self._inv_var[0],
-                                self._const[0], float(self.threshold(risk)), mask)
-            best = np.zeros(self.shape, dtype=np.intp)
+            gaussian_foreground(pixels, self.means[0], self._inv_var[0], self._const[0],
+                                float(self.threshold(risk)), mask)
+            best = None  # the one component
         else:
-            loglik, best = self.log_likelihood(image)
+            loglik, best = self.log_likelihood(pixels)
             mask = loglik < self.threshold(risk)
         if shadows and (self.channels == 3 or shadow_gray):
             # only foreground pixels can turn out to be shadows: test those alone (a few percent)
             rows, cols = np.nonzero(mask)
-            x = _as_image(image, self.channels)[rows, cols]
-            mean = self.means[best[rows, cols], rows, cols]
+            x = pixels[rows, cols]
+            mean = (self.means[0, rows, cols] if best is None
+                    else self.means[best[rows, cols], rows, cols])
             shadow = _shadow_pixels(x, mean, shadow_brightness, shadow_chromaticity)
             if self.channels == 1 and shadow.any():
-                ncc, texture = _local_ncc(_as_image(image, 1)[:, :, 0],
-                                          self.means[0][:, :, 0] if self.n_components == 1
+                ncc, texture = _local_ncc(pixels[:, :, 0],
+                                          self.means[0][:, :, 0] if best is None
                                           else np.take_along_axis(
                                               self.means[:, :, :, 0], best[None], axis=0)[0],
                                           int(shadow_window))
