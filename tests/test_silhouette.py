@@ -128,6 +128,12 @@ def test_one_component_kernel_equals_the_numpy_log_likelihood(channels):
     for value in rng.choice(loglik.ravel(), size=5):
         risk = np.exp(-(bg.channels * np.log(256.0)) - float(value))
         assert np.array_equal(bg.foreground(img, risk=risk), loglik < bg.threshold(risk))
+    # the kernel reads uint8 images as they are and float images as float32: same decisions,
+    # with and without the shadow test (which reads the same pixels)
+    for shadows in (False, True):
+        assert np.array_equal(bg.foreground(img, shadows=shadows, shadow_gray=True),
+                              bg.foreground(img.astype(np.float32), shadows=shadows,
+                                            shadow_gray=True))
 
 
 def test_gaussian_grayscale_and_bgr_input_of_a_gray_camera():

@@ -9,7 +9,7 @@ from scipy import ndimage
 from voxelmocap.camera import Camera
 from voxelmocap.carving import Carver
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.surface import smooth_surface, surface_voxels
+from voxelmocap.surface import _bounding_box, smooth_surface, surface_voxels
 
 
 def _shell(shape, lo, hi):
@@ -107,3 +107,20 @@ def test_flat_surface_profile_is_gaussian():
         np.testing.assert_allclose(smooth[10:20, 10:20, 15 + d], expected, rtol=1e-5)
         np.testing.assert_allclose(smooth[10:20, 10:20, 15 - d], expected, rtol=1e-5)
     assert np.all(smooth[:, :, 15 + 7:] == 0.0)  # beyond the kernel's reach (radius 6)
+
+
+@pytest.mark.parametrize("density", [0.0, 1e-5, 1e-3, 0.05])
+def test_bounding_box_kernel_equals_the_numpy_reductions(density):
+    """The one-pass slab kernel gives the box of ``np.nonzero`` (grown and clipped) exactly."""
+    rng = np.random.default_rng(11)
+    for shape in [(1, 1, 1), (7, 1, 9), (23, 17, 31), (40, 33, 12)]:
+        vol = rng.random(shape) < density
+        for pad in (0, 1, 4):
+            got = _bounding_box(vol, pad)
+            idx = np.nonzero(vol)
+            if len(idx[0]) == 0:
+                assert got is None
+                continue
+            want = tuple(slice(max(int(i.min()) - pad, 0), min(int(i.max()) + pad + 1, n))
+                         for i, n in zip(idx, shape, strict=True))
+            assert got == want

@@ -19,8 +19,10 @@ def gaussian_foreground(x, mean, inv_var, const, threshold, mask):
 
     Parameters
     ----------
-    x, mean, inv_var : (H, W, C) float32 ndarray
-        Image, background means and inverse variances.
+    x : (H, W, C) float32 or uint8 ndarray
+        Image (uint8 is read as it is: no float copy of the whole image).
+    mean, inv_var : (H, W, C) float32 ndarray
+        Background means and inverse variances.
     const : (H, W) float32 ndarray
         The Gaussian's log normalisation per pixel.
     threshold : float
@@ -34,6 +36,6 @@ def gaussian_foreground(x, mean, inv_var, const, threshold, mask):
         for j in range(w):
             acc = np.float32(0.0)
             for c in range(n_c):
-                d = x[i, j, c] - mean[i, j, c]
+                d = np.float32(x[i, j, c]) - mean[i, j, c]
                 acc += d * d * inv_var[i, j, c]
             mask[i, j] = np.float64(const[i, j] - half * acc) < threshold

@@ -57,8 +57,10 @@ _DEFAULT = SilhouetteConfig()
 
 
 # ---------------------------------------------------------------------- images
-def _as_image(image, channels: int | None = None, what: str = "image") -> np.ndarray:
-    """``image`` as (H, W, C) float32 with C = ``channels`` (BGR → gray when the model is gray)."""
+def _as_image(image, channels: int | None = None, what: str = "image", *,
+              keep_uint8: bool = False) -> np.ndarray:
+    """``image`` as (H, W, C) float32 with C = ``channels`` (BGR → gray when the model is gray);
+    with ``keep_uint8`` a uint8 image stays uint8 (no full-image copy)."""
     img = np.asarray(image)
     if img.ndim == 2:
         img = img[:, :, None]
@@ -69,6 +71,8 @@ def _as_image(image, channels: int | None = None, what: str = "image") -> np.nda
                            cv2.COLOR_BGR2GRAY)[:, :, None]
     elif channels == 3 and img.shape[2] == 1:
         img = np.repeat(img, 3, axis=2)
+    if keep_uint8 and img.dtype == np.uint8:
+        return img
     return img.astype(np.float32, copy=False)
 
 
@@ -182,9 +186,10 @@ class GaussianBackground:
             raise InputError("background", "no background sets")
         return cls(means, variances, min_variance=min_variance)
 
-    def _pixels(self, image) -> np.ndarray:
-        """``image`` as (H, W, C) float32 in the model's channels, checked against its size."""
-        x = _as_image(image, self.channels)
+    def _pixels(self, image, *, keep_uint8: bool = False) -> np.ndarray:
+        """``image`` as (H, W, C) float32 (or uint8, see :func:`_as_image`) in the model's
+        channels, checked against its size."""
+        x = _as_image(image, self.channels, keep_uint8=keep_uint8)
         if x.shape[:2] != self.shape:
             raise InputError("image", f"size {x.shape[1]}x{x.shape[0]} differs from the background "
                                       f"model's {self.shape[1]}x{self.shape[0]}")
@@ -242,7 +247,8 @@ class GaussianBackground:
         -------
         (H, W) bool ndarray
         """
-        pixels = self._pixels(image)  # converted once, for the test and the shadows
+        # converted once, for the test and the shadows; the kernel reads uint8 as it is
+        pixels = self._pixels(image, keep_uint8=self.n_components == 1)
         if self.n_components == 1:  # the common case, fused into one parallel pass
             from ._silhouette_kernels import gaussian_foreground
 
@@ -256,7 +262,7 @@ class GaussianBackground:
         if shadows and (self.channels == 3 or shadow_gray):
             # only foreground pixels can turn out to be shadows: test those alone (a few percent)
             rows, cols = np.nonzero(mask)
-            x = pixels[rows, cols]
+            x = pixels[rows, cols].astype(np.float32, copy=False)
             mean = (self.means[0, rows, cols] if best is None
                     else self.means[best[rows, cols], rows, cols])
             shadow = _shadow_pixels(x, mean, shadow_brightness, shadow_chromaticity)
@@ -426,14 +432,13 @@ def clean_mask(mask, *, open_radius: int = _DEFAULT.open_radius,
         r = int(close_radius)
         padded = cv2.copyMakeBorder(m, r, r, r, r, cv2.BORDER_CONSTANT, value=0)
         m = cv2.morphologyEx(padded, cv2.MORPH_CLOSE, _disk(r))[r:-r, r:-r]
-    rows = np.flatnonzero(m.any(axis=1))
-    if len(rows) == 0 or not (largest_only or min_area > 1 or fill_holes):
+    x, y, w, h = cv2.boundingRect(m)  # of the non-zero pixels; (0, 0, 0, 0) when none
+    if w == 0 or not (largest_only or min_area > 1 or fill_holes):
         return m.astype(bool)
     # Component labelling on the foreground's bounding box grown by one background pixel: every
     # component lies inside it, and the box's rim is background connected to the outside, so the
     # result is the same as on the whole image at a fraction of the cost.
-    cols = np.flatnonzero(m.any(axis=0))
-    box = (slice(max(rows[0] - 1, 0), rows[-1] + 2), slice(max(cols[0] - 1, 0), cols[-1] + 2))
+    box = (slice(max(y - 1, 0), y + h + 1), slice(max(x - 1, 0), x + w + 1))
     sub = np.ascontiguousarray(m[box])
     if largest_only:
         _, labels, stats, _ = cv2.connectedComponentsWithStats(sub, connectivity=8)

@@ -56,16 +56,18 @@ def surface_voxels(occupancy) -> np.ndarray:
 
 
 def _bounding_box(volume: np.ndarray, pad: int) -> tuple[slice, ...] | None:
-    """Slices of the bounding box of the non-zero voxels grown by ``pad`` (clipped), or None."""
-    lows, highs = [], []
-    for axis in range(volume.ndim):
-        other = tuple(a for a in range(volume.ndim) if a != axis)
-        hit = np.flatnonzero(volume.any(axis=other))
-        if len(hit) == 0:
-            return None
-        lows.append(max(int(hit[0]) - pad, 0))
-        highs.append(min(int(hit[-1]) + pad + 1, volume.shape[axis]))
-    return tuple(slice(lo, hi) for lo, hi in zip(lows, highs, strict=True))
+    """Slices of the bounding box of the non-zero voxels of a 3-D volume grown by ``pad``
+    (clipped), or None."""
+    # One reduction over the whole grid (across the x slabs: element-wise, the fast direction),
+    # then x from the box's columns alone: a person fills a small part of the grid.
+    plane = volume.any(axis=0)
+    ys = np.flatnonzero(plane.any(axis=1))
+    if len(ys) == 0:
+        return None
+    zs = np.flatnonzero(plane.any(axis=0))
+    xs = np.flatnonzero(volume[:, ys[0]:ys[-1] + 1, zs[0]:zs[-1] + 1].any(axis=(1, 2)))
+    return tuple(slice(max(int(hit[0]) - pad, 0), min(int(hit[-1]) + pad + 1, n))
+                 for hit, n in zip((xs, ys, zs), volume.shape, strict=True))
 
 
 def _centre_weight(sigma: float, truncate: float) -> float:
