@@ -260,8 +260,12 @@ class GaussianBackground:
             loglik, best = self.log_likelihood(pixels)
             mask = loglik < self.threshold(risk)
         if shadows and (self.channels == 3 or shadow_gray):
-            # only foreground pixels can turn out to be shadows: test those alone (a few percent)
-            rows, cols = np.nonzero(mask)
+            # only foreground pixels can turn out to be shadows: test those alone (a few percent),
+            # found inside the foreground's bounding box rather than over the whole image
+            x0, y0, w, h = cv2.boundingRect(mask.view(np.uint8))
+            rows, cols = np.nonzero(mask[y0:y0 + h, x0:x0 + w])
+            rows += y0
+            cols += x0
             x = pixels[rows, cols].astype(np.float32, copy=False)
             mean = (self.means[0, rows, cols] if best is None
                     else self.means[best[rows, cols], rows, cols])
