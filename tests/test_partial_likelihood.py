@@ -51,6 +51,28 @@ def test_limb_counts_equal_full_counts(seed, voxel):
                                       log_likelihood(seen, model, xs, coverage=500.0))
 
 
+@pytest.mark.parametrize("seed", [7, 8])
+def test_limbs_over_their_whole_ranges_equal_full_counts(seed):
+    """Column-by-column DO against the full kernel where overlaps are many: references and limbs
+    drawn over the whole legal ranges (legs crossing, arms inside the torso and each other),
+    on a grid offset from the voxel lattice."""
+    rng = np.random.default_rng(seed)
+    model = BodyModel()
+    grid = VoxelGrid((-1013.0, -987.0, 7.0), 25.0, (80, 80, 80))
+    seen = _observation(model, rng, grid)
+    for dims, parts in BODY_PARTITIONS[1:]:
+        for _ in range(3):
+            ref = model.default_state()
+            ref[3:] = rng.uniform(model.low[3:], model.high[3:])
+            scorer = PartialScorer(seen, model, ref, parts, dims)
+            xs = np.repeat(ref[None], 100, axis=0)
+            d = list(dims)
+            xs[:, d] = rng.uniform(model.low[d], model.high[d], (100, len(d)))
+            got = scorer.counts(xs)
+            np.testing.assert_array_equal(got, part_counts(seen, model, xs))
+            assert got[:, :, 2].any()  # the case is about double occupancy
+
+
 def test_limb_crossing_the_torso_changes_the_torso_double_occupancy():
     # the torso's DO comes only from the moving arm here: it must follow the arm exactly
     model = BodyModel()

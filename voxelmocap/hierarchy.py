@@ -10,7 +10,8 @@ pushed the first one away (the built-in demo's walk: 108–110 mm with the legs 
 together; docs/benchmarks.md). The legs go first: they hold more voxels than the arms and pin
 the pelvis height and heading the arms hang from.
 A limb's particles are scored by :class:`~voxelmocap.partial_likelihood.PartialScorer`, equal to
-the full likelihood, at the cost of two cones instead of ten.
+the full likelihood, at the cost of their own cones (two for an arm, four for the legs) instead
+of ten.
 
 >>> [len(d) for d, _ in BODY_PARTITIONS]
 [11, 8, 4, 4]
@@ -34,9 +35,6 @@ def _dims(*names):
 def _parts(*names):
     return tuple(PART_NAMES.index(n) for n in names)
 
-
-#: Partitions moving more parts than this are scored by the full kernel (same values).
-PARTIAL_MAX_PARTS = 2
 
 def _limb(prefix: str, joint: str, bend: str, upper: str, lower: str):
     return (_dims(*(f"{prefix}_{joint}_{a}" for a in ("flex", "abd", "rot")), f"{prefix}_{bend}"),
@@ -96,8 +94,8 @@ def log_likelihood_for(observation, model, variances, prior_deg, k: int, referen
                        coverage: float = 0.0):
     """Partition ``k``'s log-likelihood callable ``(P, 27) -> (P,)`` around ``reference``.
 
-    Partition 0 and the leg pair are scored in full; an arm with :class:`PartialScorer` built on
-    ``reference`` (:data:`PARTIAL_MAX_PARTS`).
+    Partition 0 is scored in full; the legs and each arm with :class:`PartialScorer` built on
+    ``reference`` (the same values at the cost of their own cones).
     The root-pitch prior (:func:`pitch_prior`) is added to both; ``coverage`` weighs the
     likelihood's coverage term (:func:`voxelmocap.likelihood.coverage_log_likelihood`).
     """
@@ -105,10 +103,7 @@ def log_likelihood_for(observation, model, variances, prior_deg, k: int, referen
     from .partial_likelihood import PartialScorer
 
     dims, parts = BODY_PARTITIONS[k]
-    # The partial scorer walks the moving cones voxel by voxel for their double occupancy:
-    # cheaper than the full column kernel for one arm's two cones, dearer for the two legs'
-    # four large ones (measured: scripts/bench_tracking.py). Both give the same counts exactly.
-    if not parts or len(parts) > PARTIAL_MAX_PARTS:
+    if not parts:
         def ll(states):
             return log_likelihood(observation, model, states, variances=variances,
                                   coverage=coverage) + pitch_prior(states, prior_deg)

@@ -4,10 +4,10 @@ A limb layer of the hierarchical search (:mod:`voxelmocap.hierarchy`) varies the
 one limb while every other dimension is held at a reference pose. The parts outside the limb then
 keep their voxels, so their Out, Occ and Surf counts are computed once per layer; only their
 double occupancy (DO) can change, where the moving limb enters them. :class:`PartialScorer`
-rasterises the static parts once (``_partial_kernels.static_cover``) and, per particle, the moving
-parts only (``_partial_kernels.partial_counts``). A limb layer costs two cones per particle
-instead of ten, and the counts equal :func:`voxelmocap.likelihood.part_counts` of the full state
-exactly (integers; ``tests/test_partial_likelihood.py``).
+finds the static parts' runs once (``_partial_kernels.static_runs``) and, per particle,
+rasterises the moving parts only (``_partial_kernels.partial_counts``). A limb layer costs two
+cones per particle instead of ten, and the counts equal :func:`voxelmocap.likelihood.part_counts`
+of the full state exactly (integers; ``tests/test_partial_likelihood.py``).
 
 >>> import numpy as np
 >>> from voxelmocap.body import BodyModel
@@ -84,11 +84,13 @@ class PartialScorer:
                 *g.origin, g.voxel_size)
         if self.static.size:
             _pk.static_box(*args, self._box)
-        shape = tuple(int(s) for s in self._box[3:])
-        self._count = np.zeros(shape, dtype=np.uint8)
-        self._owner = np.zeros(shape, dtype=np.int8)
+        # each static part's run in each column of their box (klo > khi: none)
+        self._table = np.empty((*(int(s) for s in self._box[3:5]), self.static.size, 2),
+                               dtype=np.int64)
+        self._table[..., 0] = 1
+        self._table[..., 1] = 0
         if self.static.size:
-            _pk.static_cover(*args, self._box, self._count, self._owner)
+            _pk.static_runs(*args, self._box, self._table)
         self._shape = np.ascontiguousarray(geo.shape[self.parts])
 
     def counts(self, states) -> np.ndarray:
@@ -108,7 +110,7 @@ class PartialScorer:
                            np.ascontiguousarray(geo.axis[:, p]),
                            np.ascontiguousarray(geo.u1[:, p]), np.ascontiguousarray(geo.u2[:, p]),
                            self._shape, *g.origin, g.voxel_size, self.observation.prefix, QMAX,
-                           self._box, self._count, self._owner, self.static,
+                           self._box, self._table, self.static,
                            _k.default_chunks(), moving, static_do)
         out = np.repeat(self._static_counts[None], n, axis=0)
         out[:, :, 2] += static_do
