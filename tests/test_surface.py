@@ -110,8 +110,8 @@ def test_flat_surface_profile_is_gaussian():
 
 
 @pytest.mark.parametrize("density", [0.0, 1e-5, 1e-3, 0.05])
-def test_bounding_box_kernel_equals_the_numpy_reductions(density):
-    """The one-pass slab kernel gives the box of ``np.nonzero`` (grown and clipped) exactly."""
+def test_bounding_box_equals_the_box_of_np_nonzero(density):
+    """The two-step reduction gives the box of ``np.nonzero`` (grown and clipped) exactly."""
     rng = np.random.default_rng(11)
     for shape in [(1, 1, 1), (7, 1, 9), (23, 17, 31), (40, 33, 12)]:
         vol = rng.random(shape) < density

@@ -15,6 +15,7 @@ moving run (:func:`_moving_do`):
 Interval arithmetic per column costs a few operations per run; the voxel walk it replaced cost a
 few per voxel and per other moving part, which made the legs' four cones dearer to score this
 way than all ten in full.
+
 The static parts' DO among themselves comes from the full kernel run on the static subset. The
 sum equals the full kernel's integer counts exactly (``tests/test_partial_likelihood.py``).
 """
