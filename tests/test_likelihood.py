@@ -76,6 +76,32 @@ def test_fast_counts_equal_reference_on_random_poses(seed, voxel):
     assert (fast[..., 2] > 0).any() and (fast[..., 3] > 0).any()
 
 
+@pytest.mark.parametrize("scene", [False, True])
+def test_fast_equals_reference_beyond_the_prefix_columns(scene):
+    """A compact person on a wide grid: the prefix table holds its columns only, and particles
+    reaching far outside them (and outside the grid) are counted as the reference counts them,
+    with and without a scene mask (whose excluded columns the table must then hold too)."""
+    rng = np.random.default_rng(35)
+    model = BodyModel()
+    grid = VoxelGrid((-2000.0, -1800.0, -10.0), 25.0, (160, 150, 80))
+    occ = rasterise(model, standing(model, l_elbow=60 * DEG, r_hip_flex=30 * DEG), grid) > 0
+    mask = None
+    if scene:
+        mask = np.ones(grid.shape, bool)
+        mask[10:20, 100:110, :30] = False  # away from the person
+    meas = Measurement(occ, grid, sigma=1.5, scene=mask)
+    ni, nj = meas.prefix.shape[:2]
+    assert ni * nj < 0.25 * grid.shape[0] * grid.shape[1]
+    x = random_legal(model, rng, 60)
+    x[:, :2] = rng.uniform(-2200.0, 2200.0, (60, 2))  # some inside the table, most outside
+    fast = part_counts(meas, model, x)
+    np.testing.assert_array_equal(fast, part_counts_reference(meas, model, x))
+    assert (fast[..., 3] > 0).any() and (fast[..., 1] > 0).any()
+    if scene:
+        # parts inside the grid but outside the scene box are counted Out
+        assert meas.prefix_lattice[3] <= 10 and meas.prefix_lattice[4] <= 100
+
+
 def test_fast_equals_reference_at_fine_voxels_and_axis_aligned_poses():
     # axis-aligned cones on a lattice through the cone edges: the exact-tie cases
     rng = np.random.default_rng(34)

@@ -120,8 +120,21 @@ def test_observation_equals_the_old_two_paths(scene):
     np.cumsum(q, axis=2, out=prefix[:, :, 1:, 2])
     assert np.array_equal(obs.occupancy, occ) and np.array_equal(obs.surface, surf)
     assert obs.smoothed.dtype == np.float32 and np.array_equal(obs.smoothed, smooth)
-    assert np.array_equal(obs.smoothed_q, q) and np.array_equal(obs.prefix, prefix)
+    assert np.array_equal(obs.smoothed_q, q) and np.array_equal(_whole_prefix(obs), prefix)
     assert obs.prefix.dtype == np.int32 and obs.prefix[..., -1, 2].max() > 0
+    # the table holds the person's columns only (the rest of the grid is empty and in the scene)
+    assert obs.prefix.shape[0] * obs.prefix.shape[1] < 0.2 * nx * ny
+
+
+def _whole_prefix(obs):
+    """The observation's prefix table over the whole grid: its stored columns, and elsewhere
+    what the kernels assume (nothing occupied, Ṽq = 0, every voxel in the scene)."""
+    nx, ny, nz, i0, j0 = (int(v) for v in obs.prefix_lattice)
+    whole = np.zeros((nx, ny, nz + 1, 3), dtype=np.int32)
+    whole[:, :, :, 0] = np.arange(nz + 1)
+    ni, nj = obs.prefix.shape[:2]
+    whole[i0:i0 + ni, j0:j0 + nj] = obs.prefix
+    return whole
 
 
 def test_stage_bad_input(scene):
@@ -187,5 +200,5 @@ def test_prefix_kernel_equals_numpy_on_a_masked_scene():
     expect = np.zeros(grid.shape[:2] + (grid.shape[2] + 1, 3), np.int32)
     for t, table in enumerate((scene, occ & scene, q)):
         expect[:, :, 1:, t] = np.cumsum(table, axis=2)
-    assert np.array_equal(obs.prefix, expect)
+    assert np.array_equal(_whole_prefix(obs), expect)
     assert np.array_equal(obs.smoothed_q, q)

@@ -168,13 +168,12 @@ def _moving_do(bb, runs, box, table, static_ids, counts, static_do, olo, ohi, ki
 
 
 @njit(cache=True, parallel=True)
-def partial_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, box, table,
+def partial_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice, qmax, box, table,
                    static_ids, n_chunks, counts, static_do):
     """Counts of the moving parts ``counts (P, n_moving, 6)`` and the static parts' DO gains
     ``static_do (P, n_parts)`` for every particle (geometry arrays hold the moving parts only)."""
     n_particles = base.shape[0]
     n_parts = shape.shape[0]
-    nx, ny, nz = prefix.shape[0], prefix.shape[1], prefix.shape[2] - 1
     n_chunks = max(1, min(n_particles, n_chunks))
     for c in prange(n_chunks):
         bb = np.empty((n_parts, 7), np.int64)
@@ -201,6 +200,6 @@ def partial_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, box,
                 cover_n = np.empty(2 * ncol, np.int64)
                 multi = np.empty(2 * ncol, np.int64)
             terms = _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms)
-            _score(nx, ny, nz, prefix, qmax, bb, runs, cover, cover_n, multi, counts[p])
+            _score(lattice, prefix, qmax, bb, runs, cover, cover_n, multi, counts[p])
             _moving_do(bb, runs, box, table, static_ids, counts[p], static_do[p], olo, ohi, kind,
                        plo, phi, slo, shi)

@@ -319,10 +319,17 @@ def _run_of(q, i, j, bb, runs):
 
 
 @njit(cache=True)
-def _score(nx, ny, nz, prefix, qmax, bb, runs, cover, cover_n, multi, counts):
+def _score(lattice, prefix, qmax, bb, runs, cover, cover_n, multi, counts):
     """Counts of every part of one particle into ``counts (n_parts, 6)``, except DO; fills
     ``cover``/``cover_n`` (see :func:`_double_occupancy`) and returns how many columns of
-    ``multi`` have two runs or more."""
+    ``multi`` have two runs or more.
+
+    ``lattice = (nx, ny, nz, i0, j0)``: the grid's shape and the first column of ``prefix``,
+    which holds the columns ``[i0, i0 + ni) × [j0, j0 + nj)``; in every other column of the
+    grid nothing is occupied, the smoothed surface is 0 and the whole column is in the scene.
+    """
+    nx, ny, nz, pi0, pj0 = lattice[0], lattice[1], lattice[2], lattice[3], lattice[4]
+    pni, pnj = prefix.shape[0], prefix.shape[1]
     n_parts = bb.shape[0]
     ui0 = bb[0, 0]
     uj0 = bb[0, 2]
@@ -384,15 +391,20 @@ def _score(nx, ny, nz, prefix, qmax, bb, runs, cover, cover_n, multi, counts):
                 if inside_i and 0 <= j < ny:
                     a = max(klo, 0)
                     b = min(khi, nz - 1)
-                    if a <= b:
-                        scene_in = prefix[i, j, b + 1, 0] - prefix[i, j, a, 0]
-                        occ += prefix[i, j, b + 1, 1] - prefix[i, j, a, 1]
-                        sv_all = prefix[i, j, b + 1, 2] - prefix[i, j, a, 2]
-                    if n_int > 0:
-                        a = max(ilo, 0)
-                        b = min(ihi, nz - 1)
+                    pi = i - pi0
+                    pj = j - pj0
+                    if 0 <= pi < pni and 0 <= pj < pnj:
                         if a <= b:
-                            sv_int = prefix[i, j, b + 1, 2] - prefix[i, j, a, 2]
+                            scene_in = prefix[pi, pj, b + 1, 0] - prefix[pi, pj, a, 0]
+                            occ += prefix[pi, pj, b + 1, 1] - prefix[pi, pj, a, 1]
+                            sv_all = prefix[pi, pj, b + 1, 2] - prefix[pi, pj, a, 2]
+                        if n_int > 0:
+                            a = max(ilo, 0)
+                            b = min(ihi, nz - 1)
+                            if a <= b:
+                                sv_int = prefix[pi, pj, b + 1, 2] - prefix[pi, pj, a, 2]
+                    elif a <= b:
+                        scene_in = b - a + 1  # an empty column wholly in the scene
                 out += length - scene_in
                 surf += (length - n_int) * qmax - (sv_all - sv_int)
         counts[q, 0] = n
@@ -464,16 +476,17 @@ def default_chunks() -> int:
 
 
 @njit(cache=True, parallel=True)
-def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunks, counts):
+def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice, qmax, n_chunks,
+                counts):
     """Fill ``counts (P, n_parts, 6)`` for every particle, in parallel over chunks of particles.
 
-    ``prefix (nx, ny, nz + 1, 3)`` int32 holds the prefix sums along z of the scene mask, of
-    ``V^R`` and of the quantised ``Ṽ^S`` (``qmax`` = the quantised value of 1). Particles are
-    dealt round-robin to ``n_chunks`` chunks, each with its own scratch buffers.
+    ``prefix (ni, nj, nz + 1, 3)`` int32 holds the prefix sums along z of the scene mask, of
+    ``V^R`` and of the quantised ``Ṽ^S`` (``qmax`` = the quantised value of 1) over the columns
+    that need them, ``lattice`` where they are (see :func:`_score`). Particles are dealt
+    round-robin to ``n_chunks`` chunks, each with its own scratch buffers.
     """
     n_particles = base.shape[0]
     n_parts = shape.shape[0]
-    nx, ny, nz = prefix.shape[0], prefix.shape[1], prefix.shape[2] - 1
     n_chunks = max(1, min(n_particles, n_chunks))
     for c in prange(n_chunks):
         bb = np.empty((n_parts, 7), np.int64)
@@ -497,7 +510,7 @@ def part_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, qmax, n_chunk
                 cover_n = np.empty(2 * ncol, np.int64)
                 multi = np.empty(2 * ncol, np.int64)
             terms = _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms)
-            n_multi = _score(nx, ny, nz, prefix, qmax, bb, runs, cover, cover_n, multi,
+            n_multi = _score(lattice, prefix, qmax, bb, runs, cover, cover_n, multi,
                              counts[p])
             _double_occupancy(cover, cover_n, multi, n_multi, tmp_lo, tmp_hi, run_lo, run_hi,
                               counts[p])

@@ -117,7 +117,8 @@ def part_counts(observation: VoxelObservation, model, states, *, clip: bool = Fa
     g = observation.grid
     counts = np.zeros((geo.n_particles, len(model.parts), _k.N_COUNTS), dtype=np.int64)
     _k.part_counts(geo.base, geo.axis, geo.u1, geo.u2, geo.shape, *g.origin, g.voxel_size,
-                   observation.prefix, QMAX, _k.default_chunks(), counts)
+                   observation.prefix, observation.prefix_lattice, QMAX, _k.default_chunks(),
+                   counts)
     return counts
 
 

@@ -16,7 +16,8 @@ prefix sums are computed on first use (a dump never needs them) and kept.
 >>> grid = VoxelGrid((0.0, 0.0, 0.0), 10.0, (5, 5, 5))
 >>> occ = np.zeros(grid.shape, bool); occ[1:4, 1:4, 1:4] = True
 >>> obs = VoxelObservation(occ, grid, sigma=1.0)
->>> int(obs.surface.sum()), int(obs.prefix[2, 2, -1, 1]), obs.prefix.shape  # 3 occupied in column
+>>> i0, j0 = obs.prefix_lattice[3:]       # the prefix table's first column (all 5 × 5 here)
+>>> int(obs.surface.sum()), int(obs.prefix[2 - i0, 2 - j0, -1, 1]), obs.prefix.shape
 (26, 3, (5, 5, 6, 3))
 """
 
@@ -29,7 +30,7 @@ import numpy as np
 
 from .errors import InputError
 from .grid import VoxelGrid
-from .surface import smooth_surface, surface_voxels
+from .surface import smooth_surface, smoothing_box, surface_voxels
 
 __all__ = ["QMAX", "VoxelObservation"]
 
@@ -75,8 +76,13 @@ class VoxelObservation:
     smoothed_q : (nx, ny, nz) int32 ndarray
         ``round(Ṽ^S · QMAX)``, the values both likelihood implementations use (computed on first
         use).
-    prefix : (nx, ny, nz + 1, 3) int32 ndarray
-        Prefix sums along z of ``scene``, ``occupancy`` and ``smoothed_q`` (computed on first use).
+    prefix : (ni, nj, nz + 1, 3) int32 ndarray
+        Prefix sums along z of ``scene``, ``occupancy`` and ``smoothed_q`` over the columns
+        ``[i0, i0 + ni) × [j0, j0 + nj)`` that hold an occupied voxel, a non-zero ``Ṽ^S`` or a
+        voxel outside the scene (computed on first use); every other column is empty and wholly
+        in the scene.
+    prefix_lattice : (5,) int64 ndarray
+        ``nx, ny, nz, i0, j0``: the grid's shape and where ``prefix`` starts.
     masks, timings, empty, excluded, images, cameras
         As given (``timings`` with the surface timings added; ``excluded`` a dict).
     """
@@ -123,6 +129,9 @@ class VoxelObservation:
         self.surface = surface_voxels(self.occupancy)
         t1 = time.perf_counter()
         smoothed = smooth_surface(self.surface, sigma)
+        # the columns where Ṽ^S may be non-zero (they hold the occupancy, as the surface does)
+        self._smoothed_box = smoothing_box(self.surface, sigma)
+        self._scene_box = None if scene is None else smoothing_box(~scene_mask, 0.0)
         if scene is not None:
             smoothed[~scene_mask] = 0.0
         self.smoothed = smoothed
@@ -141,14 +150,33 @@ class VoxelObservation:
         return np.rint(self.smoothed.astype(np.float64) * QMAX).astype(np.int32)
 
     @cached_property
+    def prefix_lattice(self) -> np.ndarray:
+        """``(nx, ny, nz, i0, j0)`` int64: the grid's shape and the first column of ``prefix``."""
+        boxes = [b for b in (self._smoothed_box, self._scene_box) if b is not None]
+        if boxes:
+            i0 = min(b[0].start for b in boxes)
+            j0 = min(b[1].start for b in boxes)
+        else:
+            i0 = j0 = 0
+        return np.array([*self.grid.shape, i0, j0], dtype=np.int64)
+
+    @cached_property
     def prefix(self) -> np.ndarray:
-        """``(nx, ny, nz + 1, 3)`` int32 prefix sums along z of scene, occupancy, ``smoothed_q``."""
+        """``(ni, nj, nz + 1, 3)`` int32 prefix sums along z of scene, occupancy, ``smoothed_q``
+        over the columns that need them (see the class's attributes)."""
         from ._observation_kernels import prefix_sums
 
-        nx, ny, nz = self.grid.shape
-        prefix = np.empty((nx, ny, nz + 1, 3), dtype=np.int32)
-        # one parallel pass instead of NumPy's four serial ones (quantise + three cumsums)
-        prefix_sums(self.scene, self.occupancy, self.smoothed, QMAX, prefix)
+        nz = self.grid.shape[2]
+        boxes = [b for b in (self._smoothed_box, self._scene_box) if b is not None]
+        i0, j0 = (int(v) for v in self.prefix_lattice[3:])
+        i1 = max((b[0].stop for b in boxes), default=i0)
+        j1 = max((b[1].stop for b in boxes), default=j0)
+        cols = (slice(i0, i1), slice(j0, j1))
+        # A person fills a small part of the grid: the table (and its page faults: 45 MB a
+        # frame over the whole grid at 20 mm) covers only the columns the kernels can find
+        # anything in. One parallel pass instead of NumPy's four serial ones.
+        prefix = np.empty((i1 - i0, j1 - j0, nz + 1, 3), dtype=np.int32)
+        prefix_sums(self.scene[cols], self.occupancy[cols], self.smoothed[cols], QMAX, prefix)
         return prefix
 
     def __repr__(self) -> str:

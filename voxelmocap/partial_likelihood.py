@@ -76,7 +76,8 @@ class PartialScorer:
             _k.part_counts(geo.base[:, self.static], geo.axis[:, self.static],
                            geo.u1[:, self.static], geo.u2[:, self.static],
                            np.ascontiguousarray(geo.shape[self.static]), *g.origin,
-                           g.voxel_size, observation.prefix, QMAX, 1, sub)
+                           g.voxel_size, observation.prefix, observation.prefix_lattice, QMAX,
+                           1, sub)
             self._static_counts[self.static] = sub[0]
         self._box = np.zeros(6, dtype=np.int64)
         args = (geo.base[:, self.static], geo.axis[:, self.static], geo.u1[:, self.static],
@@ -109,7 +110,8 @@ class PartialScorer:
         _pk.partial_counts(np.ascontiguousarray(geo.base[:, p]),
                            np.ascontiguousarray(geo.axis[:, p]),
                            np.ascontiguousarray(geo.u1[:, p]), np.ascontiguousarray(geo.u2[:, p]),
-                           self._shape, *g.origin, g.voxel_size, self.observation.prefix, QMAX,
+                           self._shape, *g.origin, g.voxel_size, self.observation.prefix,
+                           self.observation.prefix_lattice, QMAX,
                            self._box, self._table, self.static,
                            _k.default_chunks(), moving, static_do)
         out = np.repeat(self._static_counts[None], n, axis=0)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["smooth_surface", "surface_voxels"]
+__all__ = ["smooth_surface", "smoothing_box", "surface_voxels"]
 
 
 def surface_voxels(occupancy) -> np.ndarray:
@@ -70,6 +70,17 @@ def _bounding_box(volume: np.ndarray, pad: int) -> tuple[slice, ...] | None:
                  for hit, n in zip((xs, ys, zs), volume.shape, strict=True))
 
 
+def smoothing_box(surface, sigma: float, *, truncate: float = 4.0) -> tuple[slice, ...] | None:
+    """Slices of the box outside which :func:`smooth_surface` is 0, or None when it is 0 everywhere.
+
+    The bounding box of the surface voxels grown by the Gaussian's reach (``truncate · sigma``
+    voxels, rounded as :func:`scipy.ndimage.gaussian_filter` does), clipped to the grid.
+    ``sigma = 0`` gives the box of the voxels themselves.
+    """
+    surf = np.asarray(surface, dtype=bool)
+    return _bounding_box(surf, int(truncate * float(sigma) + 0.5))
+
+
 def _centre_weight(sigma: float, truncate: float) -> float:
     radius = int(truncate * sigma + 0.5)
     x = np.arange(-radius, radius + 1, dtype=float)
@@ -98,8 +109,7 @@ def smooth_surface(surface, sigma: float = 1.0, *, truncate: float = 4.0) -> np.
     if not sigma > 0:
         raise ValueError(f"sigma must be positive, got {sigma!r}")
     out = np.zeros(surf.shape, dtype=np.float32)
-    radius = int(truncate * float(sigma) + 0.5)  # the kernel's reach, as scipy computes it
-    box = _bounding_box(surf, radius)
+    box = smoothing_box(surf, sigma, truncate=truncate)
     if box is None:
         return out
     sub = surf[box]
