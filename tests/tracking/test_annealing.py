@@ -73,3 +73,25 @@ def test_layer_noise_scales():
     np.testing.assert_allclose(layer_noise_scales(3, alphas=FONTMARTY_ALPHAS), [1, 0.5, 0.2])
     with pytest.raises(ValueError):
         layer_noise_scales(2, alphas=FONTMARTY_ALPHAS)
+
+
+def test_ess_kernel_equals_the_numpy_expression():
+    """The one-pass ESS kernel against the tempered weights' NumPy expression, with impossible
+    particles, -inf offsets, β = 0 and a scalar offset."""
+    rng = np.random.default_rng(21)
+    for n in (1, 2, 7, 600):
+        for _ in range(20):
+            ll = rng.normal(-500.0, 40.0, n)
+            ll[rng.random(n) < 0.1] = -np.inf
+            offset = rng.normal(0.0, 2.0, n)
+            offset[rng.random(n) < 0.1] = -np.inf
+            for beta in (0.0, rng.uniform(0.0, 0.2), rng.uniform(0.0, 5.0)):
+                for off in (None, offset, 0.7):
+                    lw = tempered_log_weights(ll, beta, None if off is None
+                                              else np.broadcast_to(off, ll.shape))
+                    if lw.max() == -np.inf:
+                        want = 0.0
+                    else:
+                        e = np.exp(lw - lw.max())
+                        want = e.sum() ** 2 / (np.sum(e * e) * n)
+                    assert ess_fraction(ll, beta, off) == pytest.approx(want, rel=1e-12, abs=0)

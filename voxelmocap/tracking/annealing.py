@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _annealing_kernels as _ak
+
 __all__ = [
     "FONTMARTY_ALPHAS",
     "FONTMARTY_BETAS",
@@ -90,12 +92,23 @@ def ess_fraction(log_lik, beta: float, offset=None) -> float:
     fraction : float
         In ``[0, 1]``.
     """
-    log_w = tempered_log_weights(log_lik, beta, offset)
-    top = log_w.max()
-    if top == -np.inf:
-        return 0.0
-    e = np.exp(log_w - top)
-    return float(e.sum() ** 2 / (np.sum(e * e) * log_w.size))
+    ll, off = _prepared(log_lik, offset)
+    return float(_ak.ess_fraction(ll, float(beta), off))
+
+
+def _prepared(log_lik, offset):
+    """``log_lik`` and ``offset`` as contiguous float64 vectors for the kernel (offset empty
+    when None)."""
+    ll = np.ascontiguousarray(log_lik, dtype=np.float64).ravel()
+    off = _NO_OFFSET if offset is None else np.ascontiguousarray(offset, dtype=np.float64).ravel()
+    if off.size == 1 and ll.size != 1:
+        off = np.full(ll.size, off[0])
+    if off.size and off.size != ll.size:
+        raise ValueError(f"offset has {off.size} values for {ll.size} log-likelihoods")
+    return ll, off
+
+
+_NO_OFFSET = np.empty(0)
 
 
 def find_beta(
@@ -136,10 +149,14 @@ def find_beta(
     """
     if not 0.0 < survival <= 1.0:
         raise ValueError(f"find_beta: survival must be in (0, 1], got {survival}")
-    log_lik = np.asarray(log_lik, dtype=np.float64).ravel()
+    log_lik, off = _prepared(log_lik, offset)
     if np.any(np.isnan(log_lik)) or np.any(log_lik == np.inf):
         raise ValueError("find_beta: log-likelihoods must not be NaN or +inf")
-    if ess_fraction(log_lik, 0.0, offset) < survival:
+
+    def ess(beta):
+        return _ak.ess_fraction(log_lik, float(beta), off)
+
+    if ess(0.0) < survival:
         return 0.0
     alive = np.isfinite(log_lik)
     if offset is not None:
@@ -148,7 +165,7 @@ def find_beta(
     if spread == 0.0:
         return float(min(1.0, beta_max))
     lo, hi = 0.0, min(1.0, beta_max)
-    while ess_fraction(log_lik, hi, offset) >= survival:
+    while ess(hi) >= survival:
         if hi >= beta_max:
             return float(beta_max)
         if hi * spread > _SATURATION:
@@ -158,7 +175,7 @@ def find_beta(
         if hi - lo <= rtol * hi:
             break
         mid = 0.5 * (lo + hi)
-        if ess_fraction(log_lik, mid, offset) >= survival:
+        if ess(mid) >= survival:
             lo = mid
         else:
             hi = mid
