@@ -297,3 +297,35 @@ def test_coverage_term_against_the_rasterised_body():
     assert np.all(coverage_log_likelihood(meas, counts, 0.0) == 0.0)
     # the folded forearm leaves the true forearm's voxels uncovered: it pays for them
     assert expect[1] < expect[0]
+
+
+def test_score_kernels_equal_the_numpy_expressions():
+    """Counts → scores and the coverage term, bit for bit as the NumPy expressions compute them
+    (empty parts included, and a leading batch shape for the scores)."""
+    from voxelmocap.likelihood import QMAX, coverage_log_likelihood, scores_from_counts
+
+    rng = np.random.default_rng(36)
+    counts = rng.integers(0, 900, (300, 10, 6))
+    counts[rng.random((300, 10)) < 0.1, 0] = 0  # parts without a voxel
+    counts[rng.random((300, 10)) < 0.1, 4] = 0  # and without a surface voxel
+    n = counts[..., 0]
+    nsafe = np.maximum(n, 1).astype(float)
+    want = np.empty(counts.shape[:-1] + (4,))
+    want[..., 0] = counts[..., 1] / nsafe
+    want[..., 1] = counts[..., 2] / nsafe
+    want[..., 2] = (n - counts[..., 3]) / nsafe
+    want[..., 3] = counts[..., 5] / (np.maximum(counts[..., 4], 1).astype(float) * QMAX)
+    want[n == 0] = (0.0, 0.0, 1.0, 1.0)
+    np.testing.assert_array_equal(scores_from_counts(counts), want)
+    np.testing.assert_array_equal(scores_from_counts(counts.reshape(3, 100, 10, 6)),
+                                  want.reshape(3, 100, 10, 4))
+
+    class Seen:
+        n_occupied = 2300
+
+    covered = counts[..., 3].sum(axis=1) - 0.5 * counts[..., 2].sum(axis=1)
+    u = np.clip(1.0 - covered / Seen.n_occupied, 0.0, 1.0)
+    assert (u == 0).any() and ((u > 0) & (u < 1)).any()
+    np.testing.assert_array_equal(coverage_log_likelihood(Seen(), counts, 750.0),
+                                  -0.5 * 750.0 * u * u / 0.1)
+    np.testing.assert_array_equal(coverage_log_likelihood(Seen(), counts, 0.0), np.zeros(300))

@@ -52,6 +52,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _raster_kernels as _k
+from . import _score_kernels as _sk
 from .errors import InputError
 from .grid import VoxelGrid
 from .observation import QMAX, VoxelObservation
@@ -123,18 +124,14 @@ def part_counts(observation: VoxelObservation, model, states, *, clip: bool = Fa
 
 
 def scores_from_counts(counts) -> np.ndarray:
-    """(…, n_parts, 4) scores Out, DO, Empty, Surf from (…, n_parts, 6) integer counts."""
-    counts = np.asarray(counts, dtype=np.int64)
-    n = counts[..., 0]
-    nsafe = np.maximum(n, 1).astype(float)
-    scores = np.empty(counts.shape[:-1] + (4,))
-    scores[..., 0] = counts[..., 1] / nsafe
-    scores[..., 1] = counts[..., 2] / nsafe
-    scores[..., 2] = (n - counts[..., 3]) / nsafe
-    scores[..., 3] = counts[..., 5] / (np.maximum(counts[..., 4], 1).astype(float) * QMAX)
-    empty = n == 0
-    scores[empty] = (0.0, 0.0, 1.0, 1.0)
-    return scores
+    """(…, n_parts, 4) scores Out, DO, Empty, Surf from (…, n_parts, 6) integer counts:
+    ``Out/|Y|``, ``DO/|Y|``, ``(|Y| − Occ)/|Y|``, ``Σ(Q − Ṽq) / (|Y^S| · Q)``; a part with no
+    voxel scores ``(0, 0, 1, 1)``."""
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    flat = counts.reshape(-1, *counts.shape[-2:])
+    scores = np.empty(flat.shape[:-1] + (4,))
+    _sk.scores_from_counts(flat, QMAX, scores)
+    return scores.reshape(counts.shape[:-1] + (4,))
 
 
 def part_scores(observation: VoxelObservation, model, states, *, clip: bool = False) -> np.ndarray:
@@ -187,12 +184,11 @@ def coverage_log_likelihood(observation: VoxelObservation, counts, weight: float
     -------
     (P,) float64 ndarray
     """
-    counts = np.asarray(counts)
-    if not weight:
-        return np.zeros(counts.shape[0])
-    covered = counts[..., 3].sum(axis=1) - 0.5 * counts[..., 2].sum(axis=1)
-    u = np.clip(1.0 - covered / observation.n_occupied, 0.0, 1.0)
-    return -0.5 * float(weight) * u * u / 0.1
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    out = np.zeros(counts.shape[0])
+    if weight:
+        _sk.coverage(counts, observation.n_occupied, float(weight), out)
+    return out
 
 
 def log_likelihood_from_counts(observation: VoxelObservation, counts, *,
