@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import InputError
 from .grid import VoxelGrid
-from .surface import smooth_surface, smoothing_box, surface_voxels
+from .surface import smooth_surface_box, smoothing_box, surface_voxels
 
 __all__ = ["QMAX", "VoxelObservation"]
 
@@ -128,13 +128,13 @@ class VoxelObservation:
         t0 = time.perf_counter()
         self.surface = surface_voxels(self.occupancy)
         t1 = time.perf_counter()
-        smoothed = smooth_surface(self.surface, sigma)
-        # the columns where Ṽ^S may be non-zero (they hold the occupancy, as the surface does)
-        self._smoothed_box = smoothing_box(self.surface, sigma)
+        # Ṽ^S over the box where it may be non-zero (which holds the occupancy, as the surface
+        # does); the whole-grid array is made on first use (dumps, the reference): the tracker
+        # reads the box alone
+        self._smoothed_box, self._smoothed_values = smooth_surface_box(self.surface, sigma)
         self._scene_box = None if scene is None else smoothing_box(~scene_mask, 0.0)
-        if scene is not None:
-            smoothed[~scene_mask] = 0.0
-        self.smoothed = smoothed
+        if scene is not None and self._smoothed_box is not None:
+            self._smoothed_values[~scene_mask[self._smoothed_box]] = 0.0
         t2 = time.perf_counter()
         self.timings["surface"] = t1 - t0
         self.timings["smooth"] = t2 - t1
@@ -143,6 +143,14 @@ class VoxelObservation:
     def n_occupied(self) -> int:
         """Number of occupied voxels of ``V^R`` (at least 1, a divisor)."""
         return max(int(np.count_nonzero(self.occupancy)), 1)
+
+    @cached_property
+    def smoothed(self) -> np.ndarray:
+        """``(nx, ny, nz)`` float32 ``Ṽ^S`` in [0, 1], 0 outside the scene."""
+        out = np.zeros(self.grid.shape, dtype=np.float32)
+        if self._smoothed_box is not None:
+            out[self._smoothed_box] = self._smoothed_values
+        return out
 
     @cached_property
     def smoothed_q(self) -> np.ndarray:
@@ -176,8 +184,23 @@ class VoxelObservation:
         # frame over the whole grid at 20 mm) covers only the columns the kernels can find
         # anything in. One parallel pass instead of NumPy's four serial ones.
         prefix = np.empty((i1 - i0, j1 - j0, nz + 1, 3), dtype=np.int32)
-        prefix_sums(self.scene[cols], self.occupancy[cols], self.smoothed[cols], QMAX, prefix)
+        prefix_sums(self.scene[cols], self.occupancy[cols], self._smoothed_columns(cols), QMAX,
+                    prefix)
         return prefix
+
+    def _smoothed_columns(self, cols) -> np.ndarray:
+        """``Ṽ^S`` over the columns ``cols`` (two slices holding the smoothing box), from the
+        whole-grid array when it was made (and perhaps written to), else from the box."""
+        if "smoothed" in self.__dict__:
+            return self.smoothed[cols]
+        nz = self.grid.shape[2]
+        out = np.zeros((cols[0].stop - cols[0].start, cols[1].stop - cols[1].start, nz),
+                       dtype=np.float32)
+        if self._smoothed_box is not None:
+            bx, by, bz = self._smoothed_box
+            out[bx.start - cols[0].start:bx.stop - cols[0].start,
+                by.start - cols[1].start:by.stop - cols[1].start, bz] = self._smoothed_values
+        return out
 
     def __repr__(self) -> str:
         return (f"VoxelObservation(grid shape {self.grid.shape}, {self.grid.voxel_size:g} mm, "

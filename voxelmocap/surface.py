@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["smooth_surface", "smoothing_box", "surface_voxels"]
+__all__ = ["smooth_surface", "smooth_surface_box", "smoothing_box", "surface_voxels"]
 
 
 def surface_voxels(occupancy) -> np.ndarray:
@@ -106,12 +106,29 @@ def smooth_surface(surface, sigma: float = 1.0, *, truncate: float = 4.0) -> np.
         ``Ṽ^S``.
     """
     surf = np.asarray(surface, dtype=bool)
+    out = np.zeros(surf.shape, dtype=np.float32)
+    box, values = smooth_surface_box(surf, sigma, truncate=truncate)
+    if box is not None:
+        out[box] = values
+    return out
+
+
+def smooth_surface_box(surface, sigma: float = 1.0, *, truncate: float = 4.0):
+    """:func:`smooth_surface` over :func:`smoothing_box` only (it is 0 everywhere else).
+
+    Returns
+    -------
+    box : tuple of 3 slices, or None
+        None when there is no surface voxel.
+    values : (bx, by, bz) float32 ndarray, or None
+        ``Ṽ^S`` inside the box.
+    """
+    surf = np.asarray(surface, dtype=bool)
     if not sigma > 0:
         raise ValueError(f"sigma must be positive, got {sigma!r}")
-    out = np.zeros(surf.shape, dtype=np.float32)
     box = smoothing_box(surf, sigma, truncate=truncate)
     if box is None:
-        return out
+        return None, None
     sub = surf[box]
     # mode="constant" treats the outside as empty, like the rest of the grid beyond the box
     smoothed = ndimage.gaussian_filter(sub.astype(np.float32), sigma=sigma, mode="constant",
@@ -119,5 +136,4 @@ def smooth_surface(surface, sigma: float = 1.0, *, truncate: float = 4.0) -> np.
     smoothed /= _centre_weight(float(sigma), truncate)
     np.clip(smoothed, 0.0, 1.0, out=smoothed)
     smoothed[sub] = 1.0
-    out[box] = smoothed
-    return out
+    return box, smoothed
