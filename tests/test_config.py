@@ -100,6 +100,8 @@ def test_partial_file_keeps_defaults(tmp_path):
         ("[likelihood]\nvariances = [0.1, 0.1]\n", "must have 4 values"),
         ("[likelihood]\ncoverage = -1.0\n", r"'likelihood.coverage' must be >= 0, got -1\.0"),
         ("[likelihood]\ncoverage = inf\n", "'likelihood.coverage' must be finite"),
+        ("[filter]\nlimb_sweep_gain = -0.5\n", "'filter.limb_sweep_gain' must be >= 0"),
+        ("[filter]\nlimb_sweep_gain = nan\n", "'filter.limb_sweep_gain' must be"),
         ("[measurement]\nvoxel_size = -5\n",
          r"key 'measurement\.voxel_size' must be between 1 and 250 mm, got -5"),
         ("[measurement]\nvoxel_size = 1e9\n", r"'measurement\.voxel_size' .* got 1e\+09"),

@@ -46,3 +46,37 @@ def test_the_sweep_never_lowers_the_likelihood_and_keeps_the_optimum():
     assert after >= before
     # the partial scores are the full ones exactly: the gains add up to the full difference
     assert np.isclose(after - before, sum(gains.values()), atol=1e-9)
+
+
+def test_a_limb_moves_only_when_it_gains_more_than_min_gain():
+    """With ``min_gain`` between the limbs' gains, the limbs below it keep the start's angles
+    exactly and every reported gain exceeds it; above every gain nothing moves."""
+    model = BodyModel()
+    truth = _random_limbs(model, np.random.default_rng(11))
+    seen = Measurement(rasterise(model, truth[None], GRID) > 0, GRID)
+    start = model.default_state()
+    _, free = sweep_limbs(seen, model, start, samples=256, sweeps=1)
+    positive = sorted(g for g in free.values() if g > 0)
+    assert len(positive) >= 2, free
+    margin = 0.5 * (positive[0] + positive[1])
+    found, gains = sweep_limbs(seen, model, start, samples=256, sweeps=1, min_gain=margin)
+    for name, (dims, _) in LIMBS.items():
+        if gains[name] == 0.0:
+            np.testing.assert_array_equal(found[list(dims)], start[list(dims)])
+        else:
+            assert gains[name] > margin
+    assert any(g == 0.0 for g in gains.values()) and any(g > 0 for g in gains.values())
+    before, after = log_likelihood(seen, model, np.stack([start, found]))
+    assert np.isclose(after - before, sum(gains.values()), atol=1e-9)
+    same, none = sweep_limbs(seen, model, start, samples=256, sweeps=1,
+                             min_gain=positive[-1] + 1.0)
+    np.testing.assert_array_equal(same, model.clip(start[None])[0])
+    assert not any(none.values())
+
+
+def test_min_gain_must_not_be_negative():
+    import pytest
+
+    with pytest.raises(ValueError, match="min_gain"):
+        sweep_limbs(Measurement(np.zeros(GRID.shape, bool), GRID), BodyModel(),
+                    BodyModel().default_state(), min_gain=-1.0)

@@ -206,7 +206,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
             "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
             "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal",
-            "limb_sweep_every"}
+            "limb_sweep_every", "limb_sweep_gain"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
     # the hierarchical search's own options
     hier = config_from_toml("""
@@ -351,6 +351,30 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
                           - MODEL.landmarks(truth[None])[0, 4]) < 60.0
     np.testing.assert_array_equal(tracker.filter.estimate, record.state)
     assert abs(np.median(tracker.filter.particles[:, 11]) - record.state[11]) < 0.2
+
+
+def test_the_periodic_sweep_keeps_a_limb_whose_gain_is_below_limb_sweep_gain():
+    """The same lost arm with ``filter.limb_sweep_gain`` above what finding it gains: the sweep
+    leaves the arm hanging (the 40-particle step cannot reach it by itself either)."""
+    from voxelmocap.limb_search import sweep_limbs
+
+    truth = MODEL.default_state()
+    truth[[11, 17]] = (1.4, 0.6)
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
+    seen = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
+    variances = (0.01, 0.01, 0.1, 0.1)
+    _, gains = sweep_limbs(seen, MODEL, MODEL.default_state(), variances=variances, sweeps=1,
+                           coverage=0.0, seed=1)
+    over = {"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
+            "likelihood.variances": variances, "likelihood.coverage": 0.0}
+    wrists = []
+    for gain in (0.0, gains["l_arm"] + 1.0):
+        tracker = BodyTracker(MODEL, with_overrides(SMALL, **over, **{"filter.limb_sweep_gain":
+                                                                      gain}), seed=0)
+        tracker.start("test", MODEL.default_state())
+        record = tracker.step(seen)
+        wrists.append(np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4]))
+    assert gains["l_arm"] > 0 and wrists[0] < 60.0 and wrists[1] > 200.0, (gains, wrists)
 
 
 def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):

@@ -38,8 +38,8 @@ __all__ = ["LIMBS", "sweep_limbs"]
 
 def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, coverage: float = 0.0,
                 samples: int = 1024,
-                sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0
-                ) -> tuple[np.ndarray, dict[str, float]]:
+                sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0,
+                min_gain: float = 0.0) -> tuple[np.ndarray, dict[str, float]]:
     """Search every limb over its legal box on one frame, the rest of the body held.
 
     Parameters
@@ -63,6 +63,10 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         Evaluations of each of those refinements.
     seed : int
         Scrambling of the Sobol sequence.
+    min_gain : float
+        A limb moves only when the best angles found beat its current ones by more than this
+        (log-likelihood units, ≥ 0): a tracked limb is not flipped into a configuration the
+        frame's voxels barely prefer.
 
     Returns
     -------
@@ -73,6 +77,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
     """
     from scipy.stats import qmc
 
+    if not min_gain >= 0:
+        raise ValueError(f"min_gain must be >= 0, got {min_gain!r}")
     x = model.clip(np.asarray(state, dtype=float)[None])[0]
     gains = dict.fromkeys(LIMBS, 0.0)
     m = int(np.ceil(np.log2(max(int(samples), 2))))
@@ -98,7 +104,7 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
                                            f0=float(scores[i]))
                 if fi > best_f:
                     best_x, best_f = xi, fi
-            if best_f > current:
+            if best_f > current + min_gain:
                 gains[name] += best_f - current
                 x = best_x.copy()
     return x, gains

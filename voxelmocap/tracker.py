@@ -486,7 +486,8 @@ class BodyTracker:
         from .limb_search import sweep_limbs
 
         new, gains = sweep_limbs(observation, self.model, est[0], variances=self.variances,
-                                 coverage=self.coverage, sweeps=1, seed=self.filter.frame)
+                                 coverage=self.coverage, sweeps=1, seed=self.filter.frame,
+                                 min_gain=self.config.filter.limb_sweep_gain)
         if sum(gains.values()) > 0:
             self.filter.move_estimate(new)
             return new[None]
