@@ -11,6 +11,7 @@ Usage::
 
     python scripts/bench_no_answer.py --data /tmp/voxelmocap_acc/data --out /tmp/noanswer \\
         [--seeds 3] [--frames 100] [--with-answer | --keep-body] [--clips Walking,Jog]
+        [--cameras BW1,BW2,BW3,BW4]
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ def main() -> None:
                         help="config override, e.g. filter.search=hierarchical (repeatable; "
                              "VALUE parsed as TOML)")
     parser.add_argument("--tag", help="name of this variant's result folder and json")
+    parser.add_argument("--cameras", help="comma-separated cameras to track with (default all)")
     parser.add_argument("--track-frames", help="synchronised frames A:B to track (default all)")
     args = parser.parse_args()
     data, out = Path(args.data), Path(args.out)
@@ -127,6 +129,7 @@ def main() -> None:
             run = out / tag / f"seed{seed}"
             t0 = time.perf_counter()
             outcome = track_sequence(source, subject, seq_name, run, config=config, seed=seed,
+                                     cameras=args.cameras.split(",") if args.cameras else None,
                                      frames=args.track_frames, resume=True, progress=False,
                                      log=lambda _m: None)
             wall = time.perf_counter() - t0

@@ -206,7 +206,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
             "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
             "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal",
-            "limb_sweep_every", "limb_sweep_gain"}
+            "limb_sweep_every", "limb_sweep_gain", "limb_sweep_max_hull"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
     # the hierarchical search's own options
     hier = config_from_toml("""
@@ -375,6 +375,32 @@ def test_the_periodic_sweep_keeps_a_limb_whose_gain_is_below_limb_sweep_gain():
         record = tracker.step(seen)
         wrists.append(np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4]))
     assert gains["l_arm"] > 0 and wrists[0] < 60.0 and wrists[1] > 200.0, (gains, wrists)
+
+
+def test_the_periodic_sweep_is_skipped_when_the_hull_is_several_times_the_body():
+    """The lost arm again, with a block of occupied voxels far from the body that takes the
+    occupied volume to about three times the body's: at ``limb_sweep_max_hull = 2`` the sweep
+    does not run (the arm stays hanging); allowed any hull, it finds the arm as before."""
+    from voxelmocap.recovery import body_volume
+
+    truth = MODEL.default_state()
+    truth[[11, 17]] = (1.4, 0.6)
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
+    occupancy = rasterise(MODEL, truth[None], grid) > 0
+    occupancy[:17, :17, :17] = True                     # a corner 500 mm from the body
+    seen = Measurement(occupancy, grid)
+    ratio = seen.n_occupied * 30.0 ** 3 / body_volume(MODEL)
+    assert 2.5 < ratio < 4.0, ratio
+    over = {"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
+            "likelihood.variances": (0.01, 0.01, 0.1, 0.1), "likelihood.coverage": 0.0}
+    wrists = []
+    for max_hull in (2.0, 100.0):
+        cfg = with_overrides(SMALL, **over, **{"filter.limb_sweep_max_hull": max_hull})
+        tracker = BodyTracker(MODEL, cfg, seed=0)
+        tracker.start("test", MODEL.default_state())
+        record = tracker.step(seen)
+        wrists.append(np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4]))
+    assert wrists[0] > 200.0 and wrists[1] < 60.0, wrists
 
 
 def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):

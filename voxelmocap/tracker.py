@@ -493,6 +493,16 @@ class BodyTracker:
             return new[None]
         return est
 
+    def _hull_is_tight(self, observation) -> bool:
+        """Whether the frame's occupied volume is at most ``filter.limb_sweep_max_hull`` times
+        the body model's: the periodic sweep trusts the hull to show where a limb is, and a
+        hull several times the body (few cameras, poor silhouettes) offers phantom volume that
+        a swept limb scores well in."""
+        from .recovery import body_volume
+
+        occupied = float(observation.n_occupied) * float(observation.grid.voxel_size) ** 3
+        return occupied <= self.config.filter.limb_sweep_max_hull * body_volume(self.model)
+
     def sweep_limbs(self, observation, states) -> tuple[np.ndarray, int]:
         """Each starting pose's limbs searched over their legal ranges on this frame
         (:func:`voxelmocap.limb_search.sweep_limbs`); returns the poses (same shape) and how
@@ -637,7 +647,7 @@ class BodyTracker:
             self.settle(observation)
         est = self.model.clip(self._run_filter(observation, spent)[None])
         every = self.config.filter.limb_sweep_every
-        if every and pf.frame % every == 0:
+        if every and pf.frame % every == 0 and self._hull_is_tight(observation):
             est = self._sweep_estimate(observation, est)
         # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
         # joints picked by index); the part scores run their own inside the likelihood kernel.
