@@ -300,8 +300,8 @@ class FilterConfig:
     #: (``voxelmocap.limb_search``, the voxel likelihood with the coverage term) and move the
     #: particles to a limb found better: a limb the start folded is unfolded once its voxels
     #: show it (the gestures' forearm), a limb lost by the annealing is found again; 0 = never.
-    #: Five clips without the answer, 3 seeds: 10 (gain 2) → 43.6 mm mean, gestures 59.1 → 49.4;
-    #: 0 → 45.3 mm (docs/benchmarks.md)
+    #: Five clips without the answer, 3 seeds: 10 (gain 2, 256 samples) → 42.8 mm mean,
+    #: gestures 59.1 → 47.2; 0 → 45.3 mm (docs/benchmarks.md)
     limb_sweep_every: int = 10
     #: the periodic sweep moves a limb only when it gains more than this (log-likelihood
     #: units): for a frame the likelihood can prefer a wrong fold by a fraction of a unit (the
@@ -313,6 +313,9 @@ class FilterConfig:
     #: real views ≈ 5 ×, where every sweep moved a limb into phantom volume (a leg swung by
     #: 1.9 rad, the error up 100 mm at each sweep frame: 270 → 456 mm over the clip)
     limb_sweep_max_hull: float = 2.0
+    #: Sobol points per limb of the periodic sweep (rounded up to a power of two; the start's
+    #: sweep uses 1024): 256 → 42.8 mm and ≈ 20 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms
+    limb_sweep_samples: int = 256
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
@@ -595,6 +598,8 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, f"key '{prefix}.limb_sweep_every' must be >= 0")
         if not obj.limb_sweep_gain >= 0:
             raise InputError(source, f"key '{prefix}.limb_sweep_gain' must be >= 0")
+        if obj.limb_sweep_samples < 2:
+            raise InputError(source, f"key '{prefix}.limb_sweep_samples' must be >= 2")
         if not obj.limb_sweep_max_hull > 0:
             raise InputError(source, f"key '{prefix}.limb_sweep_max_hull' must be > 0")
         if obj.refine_evaluations < 0:

@@ -487,7 +487,8 @@ class BodyTracker:
 
         new, gains = sweep_limbs(observation, self.model, est[0], variances=self.variances,
                                  coverage=self.coverage, sweeps=1, seed=self.filter.frame,
-                                 min_gain=self.config.filter.limb_sweep_gain)
+                                 min_gain=self.config.filter.limb_sweep_gain,
+                                 samples=self.config.filter.limb_sweep_samples)
         if sum(gains.values()) > 0:
             self.filter.move_estimate(new)
             return new[None]
