@@ -314,7 +314,7 @@ class FilterConfig:
     #: 1.9 rad, the error up 100 mm at each sweep frame: 270 → 456 mm over the clip)
     limb_sweep_max_hull: float = 2.0
     #: Sobol points per limb of the periodic sweep (rounded up to a power of two; the start's
-    #: sweep uses 1024): 256 → 42.8 mm and ≈ 20 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms
+    #: sweep uses 1024): 256 → 42.8 mm and ≈ 25 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms
     limb_sweep_samples: int = 256
 
     def filter_options(self) -> dict:
