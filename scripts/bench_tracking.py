@@ -95,8 +95,8 @@ def main() -> None:
     for name in trackers:
         ll = np.median(t_ll[name][1:])
         step = np.median(t_step[name][1:])
-        total = np.median(t_meas[1:] + np.array(t_step[name][1:]))
-        mean = np.mean(t_meas[1:] + np.array(t_step[name][1:]))
+        per_frame = t_meas[1:] + np.array(t_step[name][1:])
+        total, mean = np.median(per_frame), np.mean(per_frame)
         ev = np.median(evals[name][1:])
         first = first or total
         print(f"{name:<24s} {ev:11.0f} {ll * 1e3:13.1f} {ll / ev * 1e6:8.1f} "

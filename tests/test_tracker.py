@@ -325,6 +325,29 @@ def test_the_limb_proposal_reaches_the_hierarchical_search(walk):
             assert seen[1]["proposal_share"] == 0.2 and callable(seen[1]["proposal"])
 
 
+LOST_ARM_GRID = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
+#: one-step sweep settings of the lost-arm tests: voxels of the model itself, so the paper's
+#: σ²_DO (see test_partitioned.py) and the paper's likelihood alone
+LOST_ARM_CONFIG = {"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
+                   "likelihood.variances": (0.01, 0.01, 0.1, 0.1), "likelihood.coverage": 0.0}
+
+
+def _lost_arm_truth():
+    """The default pose with the left arm raised forward (shoulder flexed, elbow bent)."""
+    truth = MODEL.default_state()
+    truth[[11, 17]] = (1.4, 0.6)
+    return truth
+
+
+def _wrist_error_after_one_step(seen, truth, **overrides):
+    """Left-wrist error (mm) of one tracker step from the default pose (arm hanging)."""
+    cfg = with_overrides(SMALL, **LOST_ARM_CONFIG, **overrides)
+    tracker = BodyTracker(MODEL, cfg, seed=0)
+    tracker.start("test", MODEL.default_state())
+    record = tracker.step(seen)
+    return float(np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4]))
+
+
 def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
     """Truth: the rasterised pose has the left arm raised forward; the track starts with the arm
     hanging. One step with ``filter.limb_sweep_every = 1`` finds the arm; the filter's particles
@@ -359,22 +382,13 @@ def test_the_periodic_sweep_keeps_a_limb_whose_gain_is_below_limb_sweep_gain():
     leaves the arm hanging (the 40-particle step cannot reach it by itself either)."""
     from voxelmocap.limb_search import sweep_limbs
 
-    truth = MODEL.default_state()
-    truth[[11, 17]] = (1.4, 0.6)
-    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
-    seen = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
-    variances = (0.01, 0.01, 0.1, 0.1)
-    _, gains = sweep_limbs(seen, MODEL, MODEL.default_state(), variances=variances, sweeps=1,
+    truth = _lost_arm_truth()
+    seen = Measurement(rasterise(MODEL, truth[None], LOST_ARM_GRID) > 0, LOST_ARM_GRID)
+    _, gains = sweep_limbs(seen, MODEL, MODEL.default_state(),
+                           variances=LOST_ARM_CONFIG["likelihood.variances"], sweeps=1,
                            coverage=0.0, seed=1)
-    over = {"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
-            "likelihood.variances": variances, "likelihood.coverage": 0.0}
-    wrists = []
-    for gain in (0.0, gains["l_arm"] + 1.0):
-        tracker = BodyTracker(MODEL, with_overrides(SMALL, **over, **{"filter.limb_sweep_gain":
-                                                                      gain}), seed=0)
-        tracker.start("test", MODEL.default_state())
-        record = tracker.step(seen)
-        wrists.append(np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4]))
+    wrists = [_wrist_error_after_one_step(seen, truth, **{"filter.limb_sweep_gain": gain})
+              for gain in (0.0, gains["l_arm"] + 1.0)]
     assert gains["l_arm"] > 0 and wrists[0] < 60.0 and wrists[1] > 200.0, (gains, wrists)
 
 
@@ -384,23 +398,14 @@ def test_the_periodic_sweep_is_skipped_when_the_hull_is_several_times_the_body()
     does not run (the arm stays hanging); allowed any hull, it finds the arm as before."""
     from voxelmocap.recovery import body_volume
 
-    truth = MODEL.default_state()
-    truth[[11, 17]] = (1.4, 0.6)
-    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
-    occupancy = rasterise(MODEL, truth[None], grid) > 0
+    truth = _lost_arm_truth()
+    occupancy = rasterise(MODEL, truth[None], LOST_ARM_GRID) > 0
     occupancy[:17, :17, :17] = True                     # a corner 500 mm from the body
-    seen = Measurement(occupancy, grid)
+    seen = Measurement(occupancy, LOST_ARM_GRID)
     ratio = seen.n_occupied * 30.0 ** 3 / body_volume(MODEL)
     assert 2.5 < ratio < 4.0, ratio
-    over = {"filter.limb_sweep_every": 1, "filter.joint_std_rad": 0.01,
-            "likelihood.variances": (0.01, 0.01, 0.1, 0.1), "likelihood.coverage": 0.0}
-    wrists = []
-    for max_hull in (2.0, 100.0):
-        cfg = with_overrides(SMALL, **over, **{"filter.limb_sweep_max_hull": max_hull})
-        tracker = BodyTracker(MODEL, cfg, seed=0)
-        tracker.start("test", MODEL.default_state())
-        record = tracker.step(seen)
-        wrists.append(np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4]))
+    wrists = [_wrist_error_after_one_step(seen, truth, **{"filter.limb_sweep_max_hull": m})
+              for m in (2.0, 100.0)]
     assert wrists[0] > 200.0 and wrists[1] < 60.0, wrists
 
 
