@@ -428,7 +428,8 @@ class CuesConfig:
     """
 
     #: cue name → weight: ``voxel`` (paper 002), ``edges`` (000 §4.1.1), ``dt``, ``roi``,
-    #: ``blob3d``, ``skin``, ``uniform`` (004 §III-B). The default is the voxel likelihood alone
+    #: ``blob3d``, ``skin``, ``uniform`` (004 §III-B), ``silhouette`` (the projected body
+    #: against each camera's silhouette). The default is the voxel likelihood alone
     weights: dict[str, float] = field(default_factory=lambda: {"voxel": 1.0})
     #: Azad's Δ (pixels between observed contour points; also the ``dt`` cue's), δ (search
     #: half-length, pixels), G_MIN (smallest grey step) and σ² of eq 13
@@ -460,6 +461,11 @@ class CuesConfig:
     #: ``uniform`` applies to the parts whose colour standard deviation in the reference frame is
     #: at most this (grey levels)
     uniform_max_std: float = 20.0
+    #: ``silhouette``: the masks are compared at this many pixels along the image's longer side,
+    #: and each camera's log-likelihood is −D / ``silhouette_scale``, D = (silhouette pixels the
+    #: body leaves uncovered + body pixels outside the silhouette) / silhouette pixels
+    silhouette_size: int = 320
+    silhouette_scale: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -711,7 +717,7 @@ def _check_cues(obj: CuesConfig, prefix: str, source) -> None:
     check_weights(obj.weights, source, f"{prefix}.weights")
     for name in ("edge_spacing", "edge_search", "edge_variance", "sigma_dt", "sigma_roi",
                  "sigma_3d_mm", "sigma_skin", "sigma_uniform", "histogram_bins", "skin_bins",
-                 "uniform_max_std"):
+                 "uniform_max_std", "silhouette_size", "silhouette_scale"):
         if not getattr(obj, name) > 0:
             raise InputError(source, f"key '{prefix}.{name}' must be > 0")
     for name in ("edge_min_gradient", "edge_c1", "edge_c2", "edge_c3"):

@@ -272,11 +272,12 @@ def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36,
 
 def searches_hierarchically(config: TrackConfig) -> bool:
     """Whether the filter searches partition by partition: ``filter.search = "hierarchical"``
-    with the ``apf`` strategy and the voxel likelihood alone (a limb is scored by re-scoring
-    its two cones; image cues and the other strategies search all dimensions at once)."""
+    with the ``apf`` strategy and the voxel likelihood at weight 1 (a limb is scored by
+    re-scoring its two cones; other cues are added evaluated on the whole state). Without the
+    voxel cue, and with the other strategies, the search is over all dimensions at once."""
     fc = config.filter
     return (fc.search == "hierarchical" and fc.strategy == "apf"
-            and dict(config.cues.weights) == {"voxel": 1.0})
+            and dict(config.cues.weights).get("voxel") == 1.0)
 
 
 def annealing_layers(config: TrackConfig) -> int:
@@ -597,6 +598,11 @@ class BodyTracker:
         :meth:`log_likelihood`."""
         from .hierarchy import log_likelihood_for
 
+        # cues other than the voxel one, on whole states (prepared and learnt once per frame)
+        others = (None if self.cues.voxel_only
+                  else self.cues.frame(observation, reference=self._cue_reference,
+                                       without=("voxel",)))
+
         def factory(k, reference):
             t0 = time.perf_counter()
             inner = log_likelihood_for(observation, self.model, self.variances,
@@ -607,7 +613,7 @@ class BodyTracker:
 
             def ll(states):
                 t1 = time.perf_counter()
-                out = inner(states)
+                out = inner(states) if others is None else inner(states) + others(states)
                 if spent is not None:
                     spent[0] += time.perf_counter() - t1
                 return out
@@ -637,7 +643,7 @@ class BodyTracker:
         """
         from .body import joints_to_endpoints
         from .confidence import landmark_confidence, landmark_spread
-        from .likelihood import log_likelihood_from_scores, part_scores
+        from .likelihood import part_scores
 
         if not self.initialised:
             raise RuntimeError("BodyTracker.step: call initialise() or set_state() first")
@@ -665,10 +671,7 @@ class BodyTracker:
             ess=np.asarray(pf.layer_ess, dtype=float),
             betas=np.asarray(pf.layer_betas, dtype=float),
             seconds=time.perf_counter() - t0,
-            # the selected cues' value (the voxel one from the part scores, no second call)
-            log_likelihood=float(log_likelihood_from_scores(scores, variances=self.variances)
-                                 if self.cues.voxel_only
-                                 else self.cues.log_likelihood(observation, est)[0]),
+            log_likelihood=self._record_log_likelihood(observation, est, scores),
             likelihood_seconds=spent[0],
             landmark_spread=spread,
             confidence=landmark_confidence(spread, scores, self.model.part_names),
@@ -676,6 +679,18 @@ class BodyTracker:
         for observer in self.observers:
             observer(record, self)
         return record
+
+    def _record_log_likelihood(self, observation, est, scores) -> float:
+        """The selected cues' value of the estimate, the voxel cue's without the coverage term
+        (paper 002's, from the part scores when it is alone): what the multi-start ranks starts
+        by and the lost-track test watches. The coverage term is symmetric under turning round
+        and swings with the hull's phantom volume (:meth:`_paper_likelihood`)."""
+        from .likelihood import log_likelihood_from_scores
+
+        if self.cues.voxel_only:
+            return float(log_likelihood_from_scores(scores, variances=self.variances))
+        with self._paper_likelihood():
+            return float(self.cues.log_likelihood(observation, est)[0])
 
     def proposal(self, observation) -> dict:
         """The IAPF's detector proposal for this frame, as ``AnnealedParticleFilter.step`` options.

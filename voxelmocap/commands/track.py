@@ -54,7 +54,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--voxel-size", type=float, help="voxel edge in mm (default 20)")
     parser.add_argument("--cameras", help="comma-separated camera names (default: all)")
     parser.add_argument("--cues", help="likelihood cues and weights, e.g. voxel,roi=4,edges=0.1 "
-                                       "(voxel, edges, dt, roi, blob3d, skin, uniform; 'fused' = "
+                                       "(voxel, edges, dt, roi, blob3d, skin, uniform, silhouette; 'fused' = "
                                        "voxel,roi=4,edges=0.1; default voxel; see docs/cues.md). "
                                        "voxel and blob3d need two cameras or more")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

@@ -45,7 +45,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["contour_angles", "contour_points", "project_contours"]
+__all__ = ["contour_angles", "contour_points", "outline_pixels", "project_contours",
+           "project_outlines"]
 
 
 def contour_angles(geo, centre) -> tuple[np.ndarray, np.ndarray]:
@@ -130,3 +131,82 @@ def project_contours(geo, camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     mid = geo.base + 0.5 * geo.shape[None, :, 2, None] * geo.axis
     depth = camera.world_to_camera(mid.reshape(-1, 3))[:, 2].reshape(n_p, n_parts)
     return seg, valid, np.ascontiguousarray(depth)
+
+
+#: Points per end ellipse of :func:`project_outlines`.
+OUTLINE_POINTS = 12
+
+
+def _outline_directions(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``grow · cos α_k``, ``grow · sin α_k`` of the ``n`` outline points per end ellipse, with
+    ``grow = π / (n sin(π/n))`` (the polygon's mean width is the ellipse's)."""
+    angle = 2.0 * np.pi * np.arange(n) / n
+    grow = np.pi / (n * np.sin(np.pi / n))
+    return grow * np.cos(angle), grow * np.sin(angle)
+
+
+def project_outlines(geo, camera, *, n: int = OUTLINE_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Image points whose convex hull is each part's image (the ``silhouette`` cue).
+
+    A truncated cone is the convex hull of its two end ellipses, and a perspective image of a
+    convex body in front of the camera is the convex hull of the images of its points: ``n``
+    points on each end ellipse give the part's image as a polygon. The points sit on an ellipse
+    ``π / (n sin(π/n))`` times the part's (1.012 at n = 12), which gives the polygon the circle's
+    mean width (a limb seen from the side is as wide as its end ellipses): its width is then
+    within −2.3 … +1.2 % of the part's in every direction instead of falling short everywhere.
+
+    Parameters
+    ----------
+    geo : voxelmocap.body.PartGeometry
+    camera : voxelmocap.camera.Camera
+    n : int
+        Points per end ellipse.
+
+    Returns
+    -------
+    points : (P, n_parts, 2 n, 2) float64 ndarray
+        Pixel ``(u, v)`` of the points (base ellipse first).
+    valid : (P, n_parts) bool ndarray
+        Every point of the part is in front of the camera and finite.
+    """
+    cos, sin = _outline_directions(n)
+    h, w, length, ratio = geo.shape[:, 4], geo.shape[:, 5], geo.shape[:, 2], geo.shape[:, 6]
+    radial = (h[None, :, None, None] * cos[None, None, :, None] * geo.u1[:, :, None, :]
+              + w[None, :, None, None] * sin[None, None, :, None]
+              * geo.u2[:, :, None, :])                               # (P, n_parts, n, 3)
+    top = geo.base + length[None, :, None] * geo.axis
+    pts = np.concatenate([geo.base[:, :, None, :] + radial,
+                          top[:, :, None, :] + ratio[None, :, None, None] * radial], axis=2)
+    n_p, n_parts = geo.base.shape[:2]
+    pixels, z = camera.project(pts.reshape(-1, 3), return_depth=True)
+    pixels = np.ascontiguousarray(pixels.reshape(n_p, n_parts, 2 * n, 2))
+    valid = ((z.reshape(n_p, n_parts, 2 * n) > 1.0).all(axis=2)
+             & np.isfinite(pixels).all(axis=(2, 3)))
+    return pixels, valid
+
+
+def outline_pixels(geo, camera, scale, *, n: int = OUTLINE_POINTS
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`project_outlines` by the numba kernel, in the pixels of a mask reduced by
+    ``scale`` (``(u + ½) · scale − ½``); the cue's hot path.
+
+    Returns
+    -------
+    points : (P, n_parts, 2 n, 2) float64 ndarray
+    valid : (P, n_parts) bool ndarray
+    """
+    from .. import _silhouette_kernels as _sk
+
+    cos, sin = _outline_directions(n)
+    n_p, n_parts = geo.base.shape[:2]
+    points = np.empty((n_p, n_parts, 2 * n, 2))
+    valid = np.empty((n_p, n_parts), np.bool_)
+    _sk.outline_points(np.ascontiguousarray(geo.base), np.ascontiguousarray(geo.axis),
+                       np.ascontiguousarray(geo.u1), np.ascontiguousarray(geo.u2),
+                       np.ascontiguousarray(geo.shape), cos, sin,
+                       np.ascontiguousarray(camera.R, dtype=float),
+                       np.asarray(camera.T, dtype=float), np.asarray(camera.fc, dtype=float),
+                       np.asarray(camera.cc, dtype=float), float(camera.alpha_c),
+                       np.asarray(camera.kc, dtype=float), np.asarray(scale, dtype=float),
+                       points, valid)
+    return points, valid

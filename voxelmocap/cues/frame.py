@@ -10,7 +10,9 @@ computes, on first use and once per frame, what the cues read:
   colour, ``n²`` grey levels for a grey camera so that both have comparable resolution);
 * ``distance(c)`` — float32 distance (pixels) to the nearest Canny edge pixel
   (``cv2.Canny`` then ``cv2.distanceTransform`` of its complement, L2, exact mask);
-* ``extremities`` — :func:`voxelmocap.detect.find_extremities` of the voxels.
+* ``extremities`` — :func:`voxelmocap.detect.find_extremities` of the voxels;
+* ``silhouette(c, size)`` — the frame's silhouette of camera ``c`` reduced to ``size`` pixels
+  along the longer side (area average ≥ ½).
 
 Cameras the measurement stage left out of the frame (``observation.excluded``: a black frame, a
 silhouette covering the image) are not used by the image cues.
@@ -91,6 +93,9 @@ class CueFrame:
         self._colour: dict[int, np.ndarray] = {}
         self._bins: dict[tuple[int, int], tuple[np.ndarray, int]] = {}
         self._distance: dict[int, np.ndarray] = {}
+        self._silhouette: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        masks = getattr(observation, "masks", None)
+        self.masks = None if masks is None else [np.asarray(masks[i]) for i in keep]
 
     def __len__(self) -> int:
         return len(self.cameras)
@@ -143,6 +148,26 @@ class CueFrame:
                                            cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
             self._distance[c] = np.ascontiguousarray(dt, dtype=np.float32)
         return self._distance[c]
+
+    def silhouette(self, c: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(mask (h, w) bool, scale (2,))``: camera ``c``'s silhouette with ``size`` pixels along
+        the longer side (never enlarged); a pixel ``(u, v)`` of the image is at
+        ``(u + ½, v + ½) · scale − ½`` in the mask."""
+        key = (c, int(size))
+        if key not in self._silhouette:
+            import cv2
+
+            if self.masks is None:
+                raise InputError("observation", "the silhouette cue needs the frame's silhouettes "
+                                                "(the observation carries none)")
+            full = self.masks[c]
+            h, w = full.shape
+            scale = min(1.0, float(size) / max(h, w))
+            small = (max(1, round(w * scale)), max(1, round(h * scale)))
+            area = cv2.resize(full.astype(np.float32), small, interpolation=cv2.INTER_AREA)
+            self._silhouette[key] = (np.ascontiguousarray(area >= 0.5),
+                                     np.array([small[0] / w, small[1] / h]))
+        return self._silhouette[key]
 
     @cached_property
     def extremities(self) -> np.ndarray:

@@ -167,22 +167,28 @@ class CueSet:
         """Some cue still waits for its reference appearance."""
         return any(c.needs_reference and not c.learnt for c in self.cues.values())
 
-    def evaluate(self, observation, states) -> dict[str, np.ndarray]:
-        """Each selected cue's log-likelihood ``(P,)`` (unweighted), in :attr:`names` order."""
+    def evaluate(self, observation, states, names=None) -> dict[str, np.ndarray]:
+        """Each selected cue's log-likelihood ``(P,)`` (unweighted), in :attr:`names` order
+        (only ``names`` when given)."""
+        names = self.names if names is None else tuple(names)
         frame = self.prepare(observation)
-        images = any(c.needs_images for c in self.cues.values())
+        images = any(self.cues[n].needs_images for n in names)
         views = Views(self.model, frame if images else None, states)
-        return {n: np.asarray(self.cues[n](frame, views), dtype=float) for n in self.names}
+        return {n: np.asarray(self.cues[n](frame, views), dtype=float) for n in names}
 
-    def log_likelihood(self, observation, states) -> np.ndarray:
-        """The fused log-likelihood ``Σ_c w_c log p_c`` of ``(P, 27)`` states → ``(P,)``."""
-        parts = self.evaluate(observation, states)
+    def log_likelihood(self, observation, states, *, without=()) -> np.ndarray:
+        """The fused log-likelihood ``Σ_c w_c log p_c`` of ``(P, 27)`` states → ``(P,)``, over
+        the selected cues not named in ``without``."""
+        names = [n for n in self.names if n not in without]
+        parts = self.evaluate(observation, states, names)
         total = np.zeros(len(np.atleast_2d(states)))
         for n, w in zip(self.names, self.weights, strict=True):
-            total += w * parts[n]
+            if n in parts:
+                total += w * parts[n]
         return total
 
-    def frame(self, observation, reference=None) -> Callable[[np.ndarray], np.ndarray]:
+    def frame(self, observation, reference=None, *, without=()
+              ) -> Callable[[np.ndarray], np.ndarray]:
         """The filter's per-frame callable ``(P, 27) → (P,)``.
 
         Parameters
@@ -192,8 +198,10 @@ class CueSet:
         reference : (27,) array_like or callable returning one, optional
             The pose to learn reference appearances from, when a cue still needs them (the
             tracker passes the pose it starts from).
+        without : sequence of str
+            Cues left out of the sum (the hierarchical search scores the voxel cue itself).
         """
-        if self.voxel_only:
+        if self.voxel_only and not without:
             from ..likelihood import log_likelihood
 
             cams = getattr(observation, "cameras", None)
@@ -207,7 +215,7 @@ class CueSet:
             state = reference() if callable(reference) else reference
             if state is not None:
                 self.learn(observation, state)
-        return lambda states: self.log_likelihood(observation, states)
+        return lambda states: self.log_likelihood(observation, states, without=without)
 
 
 def _refuse(cues, n_cameras, names):

@@ -5,17 +5,18 @@ prepared frame (:class:`~voxelmocap.cues.frame.CueFrame`) and the states' projec
 (:class:`Views`, computed once per call for all image cues). With several cameras an image cue
 is the sum over cameras of its per-camera log-likelihood (views independent given the pose).
 
-======== ================================================================ ====================
-name     log-likelihood per camera                                        paper
-======== ================================================================ ====================
-voxel    −½ Σ_Y dᵀ Σ⁻¹ d over Out, DO, Empty, Surf (all cameras at once)   002 eqs 7–9
-edges    −(ssd / M²) / (2σ²), σ² = 0.0025, on-the-fly edge search         000 §4.1.1, eq 13
-dt       −D² / (2σ_e²), D = mean Canny distance at the visible contour      004 §III-B.1
-roi      −D² / (2σ_ROI²), D = mean Bhattacharyya distance to references     004 §III-B.2
-blob3d   −D² / (2σ_3D²), D = mean distance head/hands → voxel extremities   004 §III-B.3
-skin     −D² / (2σ_s²), D = mean (1 − I_S) at projected head and hands       004 §III-B.4
-uniform  −D² / (2σ_m²), D = mean colour standard deviation inside limbs     004 §III-B.5
-======== ================================================================ ====================
+========== ================================================================ ====================
+name       log-likelihood per camera                                        paper
+========== ================================================================ ====================
+voxel      −½ Σ_Y dᵀ Σ⁻¹ d over Out, DO, Empty, Surf (all cameras at once)   002 eqs 7–9
+edges      −(ssd / M²) / (2σ²), σ² = 0.0025, on-the-fly edge search         000 §4.1.1, eq 13
+dt         −D² / (2σ_e²), D = mean Canny distance at the visible contour      004 §III-B.1
+roi        −D² / (2σ_ROI²), D = mean Bhattacharyya distance to references     004 §III-B.2
+blob3d     −D² / (2σ_3D²), D = mean distance head/hands → voxel extremities   004 §III-B.3
+skin       −D² / (2σ_s²), D = mean (1 − I_S) at projected head and hands       004 §III-B.4
+uniform    −D² / (2σ_m²), D = mean colour standard deviation inside limbs     004 §III-B.5
+silhouette −D / s, D = (uncovered silhouette + body outside it) / silhouette   —
+========== ================================================================ ====================
 
 ``roi``, ``skin`` and ``uniform`` need reference appearances, learnt once from the frame and pose
 the track starts from (:meth:`Cue.learn`); until then they contribute 0. ``skin`` applies to
@@ -29,7 +30,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _cue_kernels as _k
-from .contours import project_contours
+from .. import _silhouette_kernels as _sk
+from .contours import outline_pixels, project_contours
 
 __all__ = ["CUES", "Cue", "Views", "bhattacharyya"]
 
@@ -79,13 +81,26 @@ class Views:
         self.kinematics = model.forward(self.states)
         self.geometry = PartGeometry(self.kinematics, model.parts)
         self._model = model
-        self.seg, self.valid, self.depth = [], [], []
-        if with_contours and frame is not None:
-            for cam in frame.cameras:
-                s, v, d = project_contours(self.geometry, cam)
-                self.seg.append(s)
-                self.valid.append(v)
-                self.depth.append(d)
+        self._cameras = frame.cameras if with_contours and frame is not None else []
+        self._contours = None
+
+    def _projected(self):
+        # on first use: the silhouette cue alone never needs the contours
+        if self._contours is None:
+            self._contours = [project_contours(self.geometry, cam) for cam in self._cameras]
+        return self._contours
+
+    @property
+    def seg(self) -> list:
+        return [s for s, _, _ in self._projected()]
+
+    @property
+    def valid(self) -> list:
+        return [v for _, v, _ in self._projected()]
+
+    @property
+    def depth(self) -> list:
+        return [d for _, _, d in self._projected()]
 
     @property
     def n(self) -> int:
@@ -387,6 +402,36 @@ class BlobCue(Cue):
         return -d * d / (2.0 * self.config.sigma_3d_mm ** 2)
 
 
+class SilhouetteCue(Cue):
+    """The projected body against each camera's silhouette.
+
+    With few cameras the visual hull is several times the body (phantom volume between the
+    views), and the voxel likelihood cannot tell the body from it; a silhouette pixel, though,
+    must be covered by the body's image in its own view. Per camera
+    ``D = (|S \\ M| + |M \\ S|) / |S|`` for the silhouette ``S`` and the body's image ``M``
+    (the union of the parts' projected convex outlines, :func:`project_outlines`), both at
+    ``silhouette_size`` pixels along the longer side; the log-likelihood is ``−D / s`` with
+    ``s = silhouette_scale``. A camera whose silhouette is empty adds nothing.
+    """
+
+    name = "silhouette"
+
+    def __call__(self, frame, views):
+        cfg = self.config
+        out = np.zeros(views.n)
+        for c in range(len(frame)):
+            mask, scale = frame.silhouette(c, cfg.silhouette_size)
+            total = int(mask.sum())
+            if total == 0:
+                continue
+            pixels, valid = outline_pixels(views.geometry, frame.cameras[c], scale)
+            hit = np.empty(views.n, np.int64)
+            extra = np.empty(views.n, np.int64)
+            _sk.cover_counts(pixels, valid, mask, hit, extra)
+            out -= (total - hit + extra) / total / cfg.silhouette_scale
+        return out
+
+
 #: Cue name → class (the names of ``[cues] weights`` and ``track --cues``).
 CUES: dict[str, type[Cue]] = {cls.name: cls for cls in (
-    VoxelCue, EdgeCue, DistanceCue, HistogramCue, BlobCue, SkinCue, UniformCue)}
+    VoxelCue, EdgeCue, DistanceCue, HistogramCue, BlobCue, SkinCue, UniformCue, SilhouetteCue)}
