@@ -226,6 +226,7 @@ def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
 
 def test_a_second_track_on_the_same_result_is_refused(walk_dataset, tmp_path, capsys):
     """While one run writes RUN/S1/Walking_1.h5, another (even with --overwrite) is refused."""
+    import fcntl
     import os
     import signal
     import subprocess
@@ -234,16 +235,31 @@ def test_a_second_track_on_the_same_result_is_refused(walk_dataset, tmp_path, ca
 
     run = tmp_path / "run"
     path = run / "S1" / "Walking_1.h5"
-    # 3 × 300 particles: slow enough for the second run to start while the first writes
     args = ["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
             "--out", str(run), "--layers", "3", "--particles", "300", "--no-progress"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     first = subprocess.Popen([sys.executable, "-m", "voxelmocap.cli", *args], env=env,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        while not path.exists():  # its first frame is committed: it holds the lock
+        # until its first frame is committed (it holds the file's lock from the file's creation)
+        while not (path.exists() and len(read_result(path)) >= 1):
             assert first.poll() is None, "the first run ended before the test could race it"
             time.sleep(0.005)
+        # Paused, the first run keeps the file's lock for as long as the test needs: on a fast
+        # machine it would otherwise finish its 8 frames before the second run looks. It must not
+        # be paused inside the folder lock (held for milliseconds around the rename).
+        while True:
+            first.send_signal(signal.SIGSTOP)
+            folder = os.open(run / "S1", os.O_RDONLY)
+            try:
+                fcntl.flock(folder, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                first.send_signal(signal.SIGCONT)
+                time.sleep(0.001)
+            finally:
+                os.close(folder)
+        assert first.poll() is None, "the first run ended before the test could race it"
         capsys.readouterr()
         assert main(args + ["--overwrite"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
