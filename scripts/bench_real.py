@@ -19,6 +19,9 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
 * ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
   every tracked frame (how much of the error the silhouettes cause).
+* ``diagnose RUN``: a diagnostic: the run's body fitted to the reference's landmarks (the
+  metric's floor for that body) and scored by the run's own cues against the run's estimate —
+  does the search miss a better pose, or does the likelihood prefer the wrong one?
 
     python scripts/bench_real.py silhouettes --ref /work/p2s_ref
     python scripts/bench_real.py carving --ref /work/p2s_ref
@@ -26,6 +29,7 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
     python scripts/bench_real.py landmarks RUN --ref /work/p2s_ref
     python scripts/bench_real.py overlays RUN --out docs/images
     python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
+    python scripts/bench_real.py diagnose RUN --every 5
 """
 
 from __future__ import annotations
@@ -263,19 +267,104 @@ def overlays(args) -> None:
         print(out, f"{out.stat().st_size / 1024:.0f} kB")
 
 
-# ---------------------------------------------------------------------- diagnostic
-def oracle_track(args) -> None:
-    """``voxelmocap track`` with MediaPipe's masks as the silhouettes of every tracked frame.
+# ---------------------------------------------------------------------- search or likelihood?
+def _reference_landmarks(ref, frame: int) -> np.ndarray | None:
+    """The reference's 15 landmarks of ``frame`` (1-based) in ``LANDMARK_NAMES`` order, or None.
 
-    A diagnostic of how much of the tracked error the silhouettes cause (not a method: the
-    reference would no longer be independent). The grid is still placed from voxelmocap's own
-    silhouettes; only :meth:`MeasurementRunner.measure` of a numbered frame sees the masks.
+    MediaPipe has no head top: it is put 120 mm above the ears' midpoint along the line from the
+    shoulders' midpoint (a stand-in for the IK fit only; head top is never scored)."""
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    names = list(ref["names"])
+    truth = ref["points_mm"][frame - 1]
+
+    def mean(*keys):
+        return np.mean([truth[names.index(k)] for k in keys], axis=0)
+
+    out = []
+    for name in LANDMARK_NAMES:
+        if name in LANDMARK_MAP:
+            out.append(mean(*LANDMARK_MAP[name]))
+        else:
+            ears, shoulders = mean("left_ear", "right_ear"), mean("left_shoulder", "right_shoulder")
+            up = ears - shoulders
+            out.append(ears + 120.0 * up / np.linalg.norm(up))
+    out = np.asarray(out)
+    return out if np.all(np.isfinite(out)) else None
+
+
+def diagnose(args) -> None:
+    """Per scored frame: the run's estimate against the run's body fitted to the reference.
+
+    The fit (``fit_to_landmarks``, least squares over the 27 legal parameters, the estimate as an
+    extra start) is the best this body model can do by the metric: its error is the metric's
+    floor for that body (MediaPipe's points are not the model's joint centres). Both poses are
+    then scored by the run's own cues (config read from the result) on that frame's measurement:
+    when the fitted pose scores higher, the search missed a better optimum; when lower, the
+    likelihood (its silhouettes, voxels and weights) prefers the wrong pose. With
+    ``--mediapipe-masks`` both are scored on MediaPipe's masks instead (is it the silhouettes?).
     """
+    from voxelmocap.body import fit_to_landmarks
+    from voxelmocap.config import config_from_toml
+    from voxelmocap.inspection import result_body_model
+    from voxelmocap.io.sequence import open_sequence
+    from voxelmocap.joints import LANDMARK_NAMES
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.tracker import BodyTracker
+
+    if args.mediapipe_masks:
+        _use_mediapipe_masks(args.ref)
+    ref = load_reference(args.ref)
+    _, result = _result(args.run)
+    config = config_from_toml(str(result.attrs["config"]))
+    seq = open_sequence(args.demo)
+    model = result_body_model(seq, result)
+    runner = MeasurementRunner(seq, config, log=None)
+    tracker = BodyTracker(model, config)
+    scored = [j for j, n in enumerate(LANDMARK_NAMES) if n in LANDMARK_MAP]
+    rows = {int(f): i for i, f in enumerate(result.frames)}
+    wanted = [f for f in sorted(rows) if (f - 1) % args.every == 0]
+    out, table_rows = [], []
+    for number, images in seq.frames(wanted):
+        i = rows[int(number)]
+        target = _reference_landmarks(ref, int(number))
+        if target is None:
+            continue
+        fitted = fit_to_landmarks(model, target, initial=result.state[i])
+        states = np.stack([result.state[i], fitted])
+        lms = model.forward(states).joints[:, scored]
+        err = np.linalg.norm(lms - target[scored], axis=2)            # (2, 14)
+        observation = runner.measure(images, frame=int(number))
+        with tracker._paper_likelihood():
+            parts = tracker.cues.evaluate(observation, states)
+        total = sum(w * parts[n] for n, w in zip(tracker.cues.names, tracker.cues.weights,
+                                                  strict=True))
+        out.append((err, total, parts))
+        table_rows.append([str(int(number)), f"{err[0].mean():.0f}", f"{err[1].mean():.0f}",
+                           f"{total[1] - total[0]:+.1f}"]
+                          + [f"{parts[n][1] - parts[n][0]:+.1f}" for n in tracker.cues.names])
+    print(table(table_rows, ["frame", "estimate error (mm)", "fitted error (mm)",
+                             "Δ log-likelihood (fitted − estimate)"]
+                + [f"Δ {n} (unweighted)" for n in tracker.cues.names]))
+    est = np.concatenate([e[0][0] for e in out])
+    fit = np.concatenate([e[0][1] for e in out])
+    better = sum(float(t[1] >= t[0]) for _, t, _ in out)
+    print(f"{len(out)} frames: estimate mean {est.mean():.0f} mm ({100 * np.mean(est <= 100):.0f} % "
+          f"within 100 mm); the body fitted to the reference {fit.mean():.0f} mm "
+          f"({100 * np.mean(fit <= 100):.0f} % within 100 mm); the fitted pose scores at least as "
+          f"well as the estimate in {better:.0f}/{len(out)} frames")
+
+
+# ---------------------------------------------------------------------- diagnostic
+def _use_mediapipe_masks(ref_dir: Path) -> None:
+    """From now on, a measured frame's silhouettes are MediaPipe's masks (a diagnostic patch).
+
+    The grid is still placed from voxelmocap's own silhouettes; only
+    :meth:`MeasurementRunner.measure` of a numbered frame sees the masks."""
     import voxelmocap.measurement as measurement
     import voxelmocap.measurement_runner as runner_module
-    from voxelmocap.cli import main as cli
 
-    ref = {n: load_masks(args.ref, n) for n in ("cam01", "cam02", "cam03", "cam04")}
+    ref = {n: load_masks(ref_dir, n) for n in ("cam01", "cam02", "cam03", "cam04")}
     current = {"frame": None}
     masks_of, measure_of = measurement.MeasurementStage.masks, runner_module.MeasurementRunner.measure
 
@@ -296,17 +385,30 @@ def oracle_track(args) -> None:
 
     measurement.MeasurementStage.masks = masks
     runner_module.MeasurementRunner.measure = measure
-    cli(["track", str(args.demo), "--out", str(args.run)])
+
+
+def oracle_track(args) -> None:
+    """``voxelmocap track`` with MediaPipe's masks as the silhouettes of every tracked frame.
+
+    A diagnostic of how much of the tracked error the silhouettes cause (not a method: the
+    reference would no longer be independent).
+    """
+    from voxelmocap.cli import main as cli
+
+    _use_mediapipe_masks(args.ref)
+    extra = ["--seed", str(args.seed)] + (["--cues", args.cues] if args.cues else [])
+    cli(["track", str(args.demo), "--out", str(args.run), *extra])
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
-    for name in ("silhouettes", "carving", "landmarks", "overlays", "oracle-track"):
+    for name in ("silhouettes", "carving", "landmarks", "overlays", "oracle-track",
+                 "diagnose"):
         p = sub.add_parser(name)
         p.add_argument("--demo", type=Path, default=DEMO)
         p.add_argument("--ref", type=Path, default=REF)
-        if name in ("landmarks", "overlays", "oracle-track"):
+        if name in ("landmarks", "overlays", "oracle-track", "diagnose"):
             p.add_argument("run", type=Path)
         if name in ("silhouettes", "carving"):
             p.add_argument("--step", type=int, default=5, help="score every STEP-th frame")
@@ -320,9 +422,16 @@ def main(argv=None) -> int:
         if name == "overlays":
             p.add_argument("--out", type=Path, default=Path("docs/images"))
             p.add_argument("--width", type=int, default=640)
+        if name == "diagnose":
+            p.add_argument("--every", type=int, default=5, help="every EVERY-th tracked frame")
+            p.add_argument("--mediapipe-masks", action="store_true",
+                           help="score on MediaPipe's masks instead of the run's silhouettes")
+        if name == "oracle-track":
+            p.add_argument("--seed", type=int, default=0)
+            p.add_argument("--cues", help="track --cues (default: the config's)")
     args = ap.parse_args(argv)
     {"silhouettes": silhouettes, "carving": carving, "landmarks": landmarks,
-     "overlays": overlays, "oracle-track": oracle_track}[args.what](args)
+     "overlays": overlays, "oracle-track": oracle_track, "diagnose": diagnose}[args.what](args)
     return 0
 
 
