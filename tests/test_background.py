@@ -363,3 +363,35 @@ def segment_with(bg, image, mode):
     from voxelmocap.silhouette import segment
 
     return segment(image, bg, SilhouetteConfig(plate_unknown=mode))
+
+
+def test_the_cover_reaches_down_to_the_floor_under_a_person_whose_legs_were_not_carved():
+    """Legs the first plate absorbed are in no view's silhouette and not carved; with
+    ``support`` the voxels under the carved torso are covered in every view all the same."""
+    from voxelmocap.background import _cover
+    from voxelmocap.carving import Carver
+    from voxelmocap.grid import VoxelGrid
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))
+    body = _body(grid)
+    z = grid.centres().reshape(*grid.shape, 3)[..., 2]
+    torso, legs = body & (z > 900), body & (z < 860)       # one voxel layer apart
+    masks = _project_masks(cams, torso, grid)             # the views saw the torso only
+    carver = Carver(cams, grid)
+    for c, cam in enumerate(cams):
+        uv = np.round(cam.project(grid.centres()[legs.reshape(-1)])).astype(int)
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < cam.size[0]) & (uv[:, 1] >= 0) \
+            & (uv[:, 1] < cam.size[1])
+        uv = uv[inside]
+        with_support = _cover(torso, carver, c, masks[c], support=torso)
+        without = _cover(torso, carver, c, masks[c])
+        assert with_support[uv[:, 1], uv[:, 0]].all()
+        assert without[uv[:, 1], uv[:, 0]].mean() < 0.5
+        assert (with_support >= without).all()
+        # nothing beside the person and the column under it: the whole body's projection,
+        # grown by the cover's own dilation and closing, bounds it
+        import cv2
+        whole = cv2.dilate(_project_masks([cam], body, grid)[0].astype(np.uint8),
+                           np.ones((31, 31), np.uint8)).astype(bool)
+        assert not (with_support & ~whole).any()

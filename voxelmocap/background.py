@@ -499,7 +499,8 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
             cov = covered[cam.name]
             for f in range(n_frames):
                 person, masks = person_frames[f]
-                cov[f] = True if vanished[f] else _cover(person, carver, c, masks[c])
+                cov[f] = True if vanished[f] else _cover(
+                    person, carver, c, masks[c], support=person if config.plate_support else None)
             old = plates[cam.name]
             new = plate_from_frames(small[cam.name], config, keep=~cov, unstable=False)
             # A pixel covered in every frame keeps its previous estimate while learning (the
@@ -558,8 +559,17 @@ def _clean(mask: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
                       min_area=max(config.min_area // 4, 8), fill_holes=True)
 
 
+def _pixels_of(voxels: np.ndarray, carver: Carver, c: int) -> np.ndarray:
+    """(H, W) uint8: 1 at the pixels of camera ``c`` that the voxels' centres project to."""
+    w, h = carver.cameras[c].size
+    out = np.zeros((h, w), np.uint8)
+    idx = carver.tables[c][voxels.reshape(-1)]
+    out.reshape(-1)[idx[idx >= 0] - int(carver._offsets[c])] = 1
+    return out
+
+
 def _cover(person: np.ndarray, carver: Carver, c: int,
-           seen: np.ndarray | None = None) -> np.ndarray:
+           seen: np.ndarray | None = None, *, support: np.ndarray | None = None) -> np.ndarray:
     """Pixels of camera ``c`` covered by the person.
 
     The pixels of its voxels, dilated by a voxel's footprint and a margin, then closed with a
@@ -567,20 +577,19 @@ def _cover(person: np.ndarray, carver: Carver, c: int,
     the plate absorbed (not carved) between carved arms and legs is covered too, without the
     whole convex hull under outstretched arms.
 
+    With ``support`` (an occupancy: the person), the voxels under it down to the grid's floor
+    are covered too, whether this view saw them or not (see below in the code).
+
     The person's cast shadow is not covered: a shadow that stays in one place for most of the
     frames ends up in the plate (and is then taken for background where it is, foreground
     where it left); covering a floor zone around the feet was tried and kept the place where
     the person stood covered in every frame of a short sequence.
     """
     cam = carver.cameras[c]
-    w, h = cam.size
-    out = np.zeros((h, w), np.uint8)
-    idx = carver.tables[c][person.reshape(-1)]
-    idx = idx[idx >= 0] - int(carver._offsets[c])
-    if len(idx) == 0:
+    out = _pixels_of(person, carver, c)
+    if not out.any():
         return out.astype(bool)
-    rows = idx // w
-    out.reshape(-1)[idx] = 1
+    rows = np.flatnonzero(out.any(axis=1))
     # a voxel's footprint: its half-diagonal at the person's depth
     grid = carver.grid
     centre = grid.centre_of(np.argwhere(person).mean(axis=0))
@@ -590,6 +599,12 @@ def _cover(person: np.ndarray, carver: Carver, c: int,
     if seen is not None:
         # the carve of a few views is fatter than the person: keep what this view saw, near
         out &= cv2.dilate(seen.astype(np.uint8), _disk(2 * r))
+    if support is not None and support.any():
+        # What lies under the person down to the floor is covered whatever this view saw: legs
+        # the first plate absorbed (a subject who stands in one place) are missing from the
+        # view's mask and the carve, so they were never covered and stayed in the plate.
+        under = np.cumsum(support[:, :, ::-1], axis=2)[:, :, ::-1] > 0
+        out |= cv2.dilate(_pixels_of(under & ~support, carver, c), _disk(r))
     close = int(COVER_CLOSING * (rows.max() - rows.min() + 2 * r))
     if close > 0:
         pad = close + 1

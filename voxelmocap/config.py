@@ -132,6 +132,12 @@ class SilhouetteConfig:
     #: known background (the Pose2Sim demo's silhouette IoU 0.37–0.60 → 0.59–0.73);
     #: ``foreground``: always foreground (the carving of the other views decides)
     plate_unknown: str = _choice("grabcut", "foreground", default="grabcut")
+    #: learnt plate: while learning, cover in every view what lies under the carved person down
+    #: to the floor (legs the first plate absorbed stay in it otherwise). On the Pose2Sim demo:
+    #: recall 0.82–0.93 → 0.90–0.99 but precision 0.68–0.78 → 0.56–0.67 (never-seen regions
+    #: grow, GrabCut takes part of them for the person) and tracking within the seed spread
+    #: (docs/benchmarks.md): off by default
+    plate_support: bool = False
     #: GrabCut runs at this share of the image's resolution (its cost grows with the pixels)
     grabcut_scale: float = 0.33
     grabcut_iterations: int = 2  #: GrabCut's iterations per silhouette
