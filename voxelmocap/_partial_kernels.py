@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ._raster_kernels import _boxes, _run_of, _runs, _score, _union_columns
+from ._raster_kernels import _boxes, _insert_by_start, _run_of, _runs, _score, _union_columns
 
 
 @njit(cache=True)
@@ -74,13 +74,7 @@ def _covered(lo, hi, ilo, ihi, n, slo, shi):
         a = max(ilo[t], lo)
         b = min(ihi[t], hi)
         if a <= b:
-            pos = m
-            while pos > 0 and slo[pos - 1] > a:
-                slo[pos] = slo[pos - 1]
-                shi[pos] = shi[pos - 1]
-                pos -= 1
-            slo[pos] = a
-            shi[pos] = b
+            _insert_by_start(slo, shi, m, a, b)
             m += 1
     if m == 0:
         return 0

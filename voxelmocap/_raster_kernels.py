@@ -416,6 +416,19 @@ def _score(lattice, prefix, qmax, bb, runs, cover, cover_n, multi, counts):
     return n_multi
 
 
+@njit(cache=True, inline="always")
+def _insert_by_start(lo, hi, m, a, b):
+    """Insert the interval ``[a, b]`` into ``lo[:m], hi[:m]``, kept sorted by start (insertion
+    sort: a column holds a handful of runs). Stable: equal starts keep their order."""
+    pos = m
+    while pos > 0 and lo[pos - 1] > a:
+        lo[pos] = lo[pos - 1]
+        hi[pos] = hi[pos - 1]
+        pos -= 1
+    lo[pos] = a
+    hi[pos] = b
+
+
 @njit(cache=True)
 def _double_occupancy(cover, cover_n, multi, n_multi, tmp_lo, tmp_hi, run_lo, run_hi, counts):
     """DO counts (``counts[:, 2]``).
@@ -430,15 +443,7 @@ def _double_occupancy(cover, cover_n, multi, n_multi, tmp_lo, tmp_hi, run_lo, ru
         m = cover_n[c]
         # the column's runs sorted by start
         for a in range(m):
-            lo_a = cover[c, a, 1]
-            hi_a = cover[c, a, 2]
-            pos = a
-            while pos > 0 and run_lo[pos - 1] > lo_a:
-                run_lo[pos] = run_lo[pos - 1]
-                run_hi[pos] = run_hi[pos - 1]
-                pos -= 1
-            run_lo[pos] = lo_a
-            run_hi[pos] = hi_a
+            _insert_by_start(run_lo, run_hi, a, cover[c, a, 1], cover[c, a, 2])
         # S2 = layers inside two runs or more = ∪_b [lo_b, min(hi_b, reach before b)],
         # produced in increasing order and merged on the fly
         n2 = 0
