@@ -88,10 +88,18 @@ def table(rows, header) -> str:
 
 
 # ---------------------------------------------------------------------- silhouettes
+def _config(args):
+    """The default TrackConfig, with ``--plate-support`` applied."""
+    from voxelmocap.config import TrackConfig, with_overrides
+
+    return with_overrides(TrackConfig(), **{
+        "measurement.silhouette.plate_support": True if args.plate_support else None})
+
+
 def silhouettes(args) -> None:
     import dataclasses
 
-    from voxelmocap.config import SilhouetteConfig, TrackConfig
+    from voxelmocap.config import SilhouetteConfig
     from voxelmocap.measurement_runner import MeasurementRunner
     from voxelmocap.silhouette import build_backgrounds, segment
 
@@ -101,7 +109,7 @@ def silhouettes(args) -> None:
     step = args.step
     frames = list(seq.frame_numbers)
     t0 = time.perf_counter()
-    runner = MeasurementRunner(seq, TrackConfig(), log=print)
+    runner = MeasurementRunner(seq, _config(args), log=print)
     t_plate = time.perf_counter() - t0
     variants = {}
     if not args.no_mog2:
@@ -153,7 +161,6 @@ def silhouettes(args) -> None:
 # ---------------------------------------------------------------------- carving rules
 def carving(args) -> None:
     from voxelmocap.background import person_component
-    from voxelmocap.config import TrackConfig
     from voxelmocap.measurement_runner import MeasurementRunner
 
     seq = open_demo(args.demo)
@@ -161,7 +168,7 @@ def carving(args) -> None:
     ref = load_reference(args.ref)
     joint_idx = [list(ref["names"]).index(j) for j in BODY_JOINTS]
     refm = {n: load_masks(args.ref, n) for n in names}
-    runner = MeasurementRunner(seq, TrackConfig(), log=print)
+    runner = MeasurementRunner(seq, _config(args), log=print)
     grid, carver = runner.grid, runner.carver
     rules = {"strict (every view)": lambda m: carver.carve(m),
              "one hole, anywhere (carve_hole_reach = 0)":
@@ -169,7 +176,7 @@ def carving(args) -> None:
              f"one hole, within {runner.hole_reach:g} of the diagonal (default)":
                  lambda m: carver.carve_with_holes(m, 1, reach=runner.hole_reach),
              "min_views = 2": lambda m: carver.carve(m, min_views=2)}
-    res = {r: {"inside": [], "iou": [], "volume": []} for r in rules}
+    res = {r: {"inside": [], "iou": [], "volume": [], "iou_and": []} for r in rules}
     frames = list(seq.frame_numbers)[::args.step]
     for number, images in seq.frames(frames):
         if args.mediapipe_masks:
@@ -198,11 +205,16 @@ def carving(args) -> None:
                 t = carver.tables[c][occ.reshape(-1)]
                 sil[t[t >= 0] - int(carver._offsets[c])] = 1
                 sil = cv2.dilate(sil.reshape(h, w), np.ones((9, 9), np.uint8)).astype(bool)
-                res[rule]["iou"].append(scores(sil, refm[cam.name][int(number) - 1])[2])
+                truth = refm[cam.name][int(number) - 1]
+                truth = np.pad(truth, ((0, 0), (0, w - truth.shape[1])))
+                res[rule]["iou"].append(scores(sil, truth)[2])
+                # the silhouette without what carves into nothing (2D ghosts, other people)
+                res[rule]["iou_and"].append(scores(sil & masks[c], truth)[2])
     rows = [[rule, f"{100 * np.mean(v['inside']):.1f} %", f"{np.mean(v['iou']):.2f}",
-             f"{np.mean(v['volume']):.0f}"] for rule, v in res.items()]
+             f"{np.mean(v['iou_and']):.2f}", f"{np.mean(v['volume']):.0f}"]
+            for rule, v in res.items()]
     print(table(rows, ["carving rule", "reference joints inside", "reprojected IoU",
-                       "volume (litres)"]))
+                       "IoU of reprojection ∩ silhouette", "volume (litres)"]))
 
 
 # ---------------------------------------------------------------------- landmarks
@@ -412,6 +424,8 @@ def main(argv=None) -> int:
             p.add_argument("run", type=Path)
         if name in ("silhouettes", "carving"):
             p.add_argument("--step", type=int, default=5, help="score every STEP-th frame")
+            p.add_argument("--plate-support", action="store_true",
+                           help="learn the plate with [measurement.silhouette] plate_support")
         if name == "carving":
             p.add_argument("--mediapipe-masks", action="store_true",
                            help="carve MediaPipe's masks instead of the silhouettes")
