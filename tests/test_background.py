@@ -395,3 +395,25 @@ def test_the_cover_reaches_down_to_the_floor_under_a_person_whose_legs_were_not_
         whole = cv2.dilate(_project_masks([cam], body, grid)[0].astype(np.uint8),
                            np.ones((31, 31), np.uint8)).astype(bool)
         assert not (with_support & ~whole).any()
+
+
+def test_the_observation_carries_the_plates_never_seen_pixels():
+    """``observation.known``: per camera the pixels whose background the learnt plate saw; None
+    for a camera whose plate saw them all, and None overall when no camera has any unseen."""
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measurement import MeasurementStage
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))
+    masks = _project_masks(cams, _body(grid), grid)
+    images = {c.name: np.where(m, 200, 0).astype(np.uint8)
+              for c, m in zip(cams, masks, strict=True)}
+    unseen = np.ones((240, 320), bool)
+    unseen[50:90, 100:140] = False
+    plates = {c.name: PlateBackground(np.zeros((240, 320)), 2.0,
+                                      known=unseen if c.name == "C2" else None) for c in cams}
+    obs = MeasurementStage(cams, grid, plates, holes=1).measure(images)
+    assert obs.known[0] is None and obs.known[2] is None and obs.known[3] is None
+    np.testing.assert_array_equal(obs.known[1], unseen)
+    plates["C2"] = PlateBackground(np.zeros((240, 320)), 2.0)
+    assert MeasurementStage(cams, grid, plates, holes=1).measure(images).known is None

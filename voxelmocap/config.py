@@ -472,6 +472,9 @@ class CuesConfig:
     #: body leaves uncovered + body pixels outside the silhouette) / silhouette pixels
     silhouette_size: int = 320
     silhouette_scale: float = 0.02
+    #: silhouette pixels whose background a learnt plate never saw (GrabCut's guess): ``ignore``
+    #: — uncovered, they cost nothing (body pixels outside the silhouette still do); ``count``
+    silhouette_unseen: str = _choice("ignore", "count", default="ignore")
 
 
 @dataclass(frozen=True)

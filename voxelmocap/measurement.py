@@ -233,4 +233,14 @@ class MeasurementStage:
         return VoxelObservation(occ, self.grid, sigma=self.sigma, masks=masks,
                                 timings={"subtract": t1 - t0, "carve": t2 - t1}, empty=empty,
                                 excluded=excluded, images=[images[n] for n in self.names],
-                                cameras=self.cameras)
+                                cameras=self.cameras, known=self.known)
+
+    @property
+    def known(self) -> list | None:
+        """Per camera, the pixels whose background a learnt plate has seen (None where all are,
+        or the background is not a learnt plate); None when no camera has never-seen pixels."""
+        out = []
+        for n in self.names:
+            k = getattr(self.backgrounds[n], "known", None)
+            out.append(None if k is None or k.all() else k)
+        return None if all(k is None for k in out) else out

@@ -85,11 +85,14 @@ class VoxelObservation:
         ``nx, ny, nz, i0, j0``: the grid's shape and where ``prefix`` starts.
     masks, timings, empty, excluded, images, cameras
         As given (``timings`` with the surface timings added; ``excluded`` a dict).
+    known : list of ((H_c, W_c) bool ndarray or None), optional
+        Per camera (rig order), the pixels whose background the learnt plate has seen (None: all
+        of them, or not a learnt plate): the rest of a silhouette there is GrabCut's guess.
     """
 
     def __init__(self, occupancy, grid: VoxelGrid, *, sigma: float = 1.0, scene=None,
                  masks=None, timings: dict | None = None, empty: bool = False,
-                 excluded: dict | None = None, images=None, cameras=None):
+                 excluded: dict | None = None, images=None, cameras=None, known=None):
         if not isinstance(grid, VoxelGrid):
             raise InputError("grid", f"expected a VoxelGrid, got {type(grid).__name__}")
         occ = np.asarray(occupancy)
@@ -125,6 +128,7 @@ class VoxelObservation:
         self.excluded = dict(excluded or {})
         self.images = None if images is None else list(images)
         self.cameras = None if cameras is None else list(cameras)
+        self.known = None if known is None else list(known)
         t0 = time.perf_counter()
         self.surface = surface_voxels(self.occupancy)
         t1 = time.perf_counter()

@@ -127,6 +127,46 @@ def test_silhouette_cue_is_zero_at_the_pose_and_equals_the_hand_count():
     assert ll[1] == pytest.approx(expected)
 
 
+def test_never_seen_silhouette_pixels_cost_nothing_uncovered():
+    """With a learnt plate's never-seen pixels (``observation.known``), a silhouette pixel there
+    costs nothing when the body leaves it uncovered (``silhouette_unseen = "ignore"``, the
+    default); body pixels outside the silhouette still cost; ``count`` restores the plain D."""
+    model = BodyModel()
+    x = model.default_state()
+    cams = [_camera(size=(320, 240)), _camera("D", eye=(3000.0, -3000.0, 1500.0), size=(320, 240))]
+    plain = _observation(model, x, cams, 320)
+    rng = np.random.default_rng(3)
+    ghosts, known = [], []
+    for mask in plain.masks:
+        ghost = mask.copy()
+        ghost[100:160, 20:70] = True                       # a ghost beside the body
+        k = rng.random(mask.shape) > 0.3                   # never-seen pixels scattered …
+        k[100:160, 20:70] = False                          # … and the whole ghost
+        ghosts.append(ghost)
+        known.append(k)
+    obs = VoxelObservation(plain.occupancy, plain.grid, masks=ghosts, images=plain.images,
+                           cameras=cams, known=known)
+    moved = np.repeat(x[None], 2, axis=0)
+    moved[1, 11] += 0.8                                    # an arm raised
+    ignore = CueSet(model, CuesConfig(weights={"silhouette": 1.0}, silhouette_scale=0.05))
+    count = CueSet(model, CuesConfig(weights={"silhouette": 1.0}, silhouette_scale=0.05,
+                                     silhouette_unseen="count"))
+    expected_ignore, expected_count = np.zeros(2), np.zeros(2)
+    for cam, mask, k in zip(cams, ghosts, known, strict=True):
+        outline, valid = project_outlines(model.geometry(moved), cam)
+        for p in range(2):
+            drawn = _drawn(outline[p], valid[p], mask.shape[0], mask.shape[1])
+            extra = (drawn & ~mask).sum()
+            expected_ignore[p] -= ((mask & k & ~drawn).sum() + extra) / mask.sum() / 0.05
+            expected_count[p] -= ((mask & ~drawn).sum() + extra) / mask.sum() / 0.05
+    np.testing.assert_allclose(ignore.log_likelihood(obs, moved), expected_ignore)
+    np.testing.assert_allclose(count.log_likelihood(obs, moved), expected_count)
+    # the ghost no longer costs the true pose anything; counted, it does
+    assert expected_ignore[0] > expected_count[0] + 1.0
+    # without never-seen pixels the two settings agree
+    np.testing.assert_allclose(ignore.log_likelihood(plain, moved),
+                               count.log_likelihood(plain, moved))
+
 def test_silhouette_cue_reduces_large_images():
     """A 640 × 480 silhouette compared at 160 pixels: the reduced mask is the area average."""
     model = BodyModel()

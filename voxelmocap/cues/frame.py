@@ -96,6 +96,9 @@ class CueFrame:
         self._silhouette: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         masks = getattr(observation, "masks", None)
         self.masks = None if masks is None else [np.asarray(masks[i]) for i in keep]
+        known = getattr(observation, "known", None)
+        self.known = None if known is None else [known[i] for i in keep]
+        self._known: dict[tuple[int, int], np.ndarray | None] = {}
 
     def __len__(self) -> int:
         return len(self.cameras)
@@ -168,6 +171,22 @@ class CueFrame:
             self._silhouette[key] = (np.ascontiguousarray(area >= 0.5),
                                      np.array([small[0] / w, small[1] / h]))
         return self._silhouette[key]
+
+    def silhouette_known(self, c: int, size: int) -> np.ndarray | None:
+        """``(h, w) bool``: the pixels of :meth:`silhouette`'s mask whose background the learnt
+        plate has seen (area average ≥ ½), or None when all of camera ``c``'s are."""
+        key = (c, int(size))
+        if key not in self._known:
+            known = None if self.known is None else self.known[c]
+            if known is not None:
+                import cv2
+
+                mask, _ = self.silhouette(c, size)
+                known = np.ascontiguousarray(cv2.resize(
+                    np.asarray(known, np.float32), mask.shape[::-1],
+                    interpolation=cv2.INTER_AREA) >= 0.5)
+            self._known[key] = known
+        return self._known[key]
 
     @cached_property
     def extremities(self) -> np.ndarray:

@@ -411,7 +411,9 @@ class SilhouetteCue(Cue):
     ``D = (|S \\ M| + |M \\ S|) / |S|`` for the silhouette ``S`` and the body's image ``M``
     (the union of the parts' projected convex outlines, :func:`project_outlines`), both at
     ``silhouette_size`` pixels along the longer side; the log-likelihood is ``−D / s`` with
-    ``s = silhouette_scale``. A camera whose silhouette is empty adds nothing.
+    ``s = silhouette_scale``. A camera whose silhouette is empty adds nothing. With
+    ``silhouette_unseen = "ignore"`` (the default), ``S \\ M`` counts only the silhouette pixels
+    whose background the learnt plate has seen (``observation.known``).
     """
 
     name = "silhouette"
@@ -428,7 +430,19 @@ class SilhouetteCue(Cue):
             hit = np.empty(views.n, np.int64)
             extra = np.empty(views.n, np.int64)
             _sk.cover_counts(pixels, valid, mask, hit, extra)
-            out -= (total - hit + extra) / total / cfg.silhouette_scale
+            known = frame.silhouette_known(c, cfg.silhouette_size) \
+                if cfg.silhouette_unseen == "ignore" else None
+            if known is None:
+                uncovered = total - hit
+            else:
+                # A silhouette pixel whose background was never seen is GrabCut's guess (often
+                # a ghost beside the torso): leaving it uncovered costs nothing; body pixels
+                # outside the silhouette still do.
+                seen = np.ascontiguousarray(mask & known)
+                hit_seen = np.empty(views.n, np.int64)
+                _sk.cover_counts(pixels, valid, seen, hit_seen, np.empty(views.n, np.int64))
+                uncovered = int(seen.sum()) - hit_seen
+            out -= (uncovered + extra) / total / cfg.silhouette_scale
         return out
 
 
