@@ -30,7 +30,7 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
     python scripts/bench_real.py landmarks RUN --ref /work/p2s_ref
     python scripts/bench_real.py overlays RUN --out docs/images
     python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
-    python scripts/bench_real.py diagnose RUN --every 5
+    python scripts/bench_real.py diagnose RUN --every 5 [--mediapipe-masks] [--unseen count]
 """
 
 from __future__ import annotations
@@ -306,33 +306,6 @@ def _reference_landmarks(ref, frame: int) -> np.ndarray | None:
     return out if np.all(np.isfinite(out)) else None
 
 
-def _known_only_silhouette(tracker, runner, observation, states) -> np.ndarray:
-    """The silhouette cue's value of ``states`` with its uncovered-silhouette count restricted to
-    pixels whose background the learnt plate has seen (``PlateBackground.known``)."""
-    from voxelmocap import _silhouette_kernels as sk
-    from voxelmocap.cues.contours import outline_pixels
-    from voxelmocap.cues.terms import Views
-
-    cfg = tracker.config.cues
-    frame = tracker.cues.prepare(observation)
-    views = Views(tracker.model, None, states, with_contours=False)
-    out = np.zeros(len(states))
-    for c, cam in enumerate(frame.cameras):
-        mask, scale = frame.silhouette(c, cfg.silhouette_size)
-        total = int(mask.sum())
-        if total == 0:
-            continue
-        known = runner.backgrounds[cam.name].known
-        known = cv2.resize(known.astype(np.float32), mask.shape[::-1],
-                           interpolation=cv2.INTER_AREA) >= 0.5
-        pixels, valid = outline_pixels(views.geometry, cam, scale)
-        hit, extra = np.empty(len(states), np.int64), np.empty(len(states), np.int64)
-        sk.cover_counts(pixels, valid, mask, hit, extra)
-        hit_known, unused = np.empty(len(states), np.int64), np.empty(len(states), np.int64)
-        sk.cover_counts(pixels, valid, np.ascontiguousarray(mask & known), hit_known, unused)
-        out -= (int((mask & known).sum()) - hit_known + extra) / total / cfg.silhouette_scale
-    return out
-
 def diagnose(args) -> None:
     """Per scored frame: the run's estimate against the run's body fitted to the reference.
 
@@ -345,7 +318,7 @@ def diagnose(args) -> None:
     ``--mediapipe-masks`` both are scored on MediaPipe's masks instead (is it the silhouettes?).
     """
     from voxelmocap.body import fit_to_landmarks
-    from voxelmocap.config import config_from_toml
+    from voxelmocap.config import config_from_toml, with_overrides
     from voxelmocap.inspection import result_body_model
     from voxelmocap.io.sequence import open_sequence
     from voxelmocap.joints import LANDMARK_NAMES
@@ -356,7 +329,8 @@ def diagnose(args) -> None:
         _use_mediapipe_masks(args.ref)
     ref = load_reference(args.ref)
     _, result = _result(args.run)
-    config = config_from_toml(str(result.attrs["config"]))
+    config = with_overrides(config_from_toml(str(result.attrs["config"])),
+                            **{"cues.silhouette_unseen": args.unseen})
     seq = open_sequence(args.demo)
     model = result_body_model(seq, result)
     runner = MeasurementRunner(seq, config, log=None)
@@ -379,14 +353,6 @@ def diagnose(args) -> None:
             parts = tracker.cues.evaluate(observation, states)
         total = sum(w * parts[n] for n, w in zip(tracker.cues.names, tracker.cues.weights,
                                                   strict=True))
-        if args.known_only:
-            # the silhouette term with its "uncovered" part counted on pixels whose background
-            # the plate has seen (a prototype: never-seen pixels only penalise body outside)
-            names = tracker.cues.names
-            weight = dict(zip(names, tracker.cues.weights, strict=True)).get("silhouette", 0.0)
-            known = _known_only_silhouette(tracker, runner, observation, states)
-            total = total + weight * (known - parts.get("silhouette", 0.0))
-            parts = {**parts, "silhouette": known}
         out.append((err, total, parts))
         table_rows.append([str(int(number)), f"{err[0].mean():.0f}", f"{err[1].mean():.0f}",
                            f"{total[1] - total[0]:+.1f}"]
@@ -476,9 +442,9 @@ def main(argv=None) -> int:
             p.add_argument("--every", type=int, default=5, help="every EVERY-th tracked frame")
             p.add_argument("--mediapipe-masks", action="store_true",
                            help="score on MediaPipe's masks instead of the run's silhouettes")
-            p.add_argument("--known-only", action="store_true",
-                           help="score the silhouette cue's uncovered pixels on the plate's "
-                                "known background only (a prototype)")
+            p.add_argument("--unseen", choices=("ignore", "count"),
+                           help="[cues] silhouette_unseen for the scoring (default: the run's; "
+                                "runs older than the key read as the default, ignore)")
         if name == "oracle-track":
             p.add_argument("--seed", type=int, default=0)
             p.add_argument("--cues", help="track --cues (default: the config's)")
