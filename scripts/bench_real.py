@@ -444,7 +444,7 @@ def main(argv=None) -> int:
                            help="score on MediaPipe's masks instead of the run's silhouettes")
             p.add_argument("--unseen", choices=("ignore", "count"),
                            help="[cues] silhouette_unseen for the scoring (default: the run's; "
-                                "runs older than the key read as the default, ignore)")
+                                "runs older than the key read as the default, count)")
         if name == "oracle-track":
             p.add_argument("--seed", type=int, default=0)
             p.add_argument("--cues", help="track --cues (default: the config's)")

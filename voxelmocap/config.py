@@ -472,9 +472,12 @@ class CuesConfig:
     #: body leaves uncovered + body pixels outside the silhouette) / silhouette pixels
     silhouette_size: int = 320
     silhouette_scale: float = 0.02
-    #: silhouette pixels whose background a learnt plate never saw (GrabCut's guess): ``ignore``
-    #: — uncovered, they cost nothing (body pixels outside the silhouette still do); ``count``
-    silhouette_unseen: str = _choice("ignore", "count", default="ignore")
+    #: silhouette pixels whose background a learnt plate never saw (GrabCut's guess): ``count``
+    #: like any other; ``ignore`` — uncovered, they cost nothing (body pixels outside the
+    #: silhouette still do). On the Pose2Sim demo ``ignore`` ranked the reference's pose above
+    #: the estimate more often but tracked worse (336–358 against 217–227 mm, 2 seeds with
+    #: ``plate_support``; docs/benchmarks.md)
+    silhouette_unseen: str = _choice("count", "ignore", default="count")
 
 
 @dataclass(frozen=True)

@@ -129,8 +129,8 @@ def test_silhouette_cue_is_zero_at_the_pose_and_equals_the_hand_count():
 
 def test_never_seen_silhouette_pixels_cost_nothing_uncovered():
     """With a learnt plate's never-seen pixels (``observation.known``), a silhouette pixel there
-    costs nothing when the body leaves it uncovered (``silhouette_unseen = "ignore"``, the
-    default); body pixels outside the silhouette still cost; ``count`` restores the plain D."""
+    costs nothing when the body leaves it uncovered (``silhouette_unseen = "ignore"``); body
+    pixels outside the silhouette still cost; ``count`` (the default) is the plain D."""
     model = BodyModel()
     x = model.default_state()
     cams = [_camera(size=(320, 240)), _camera("D", eye=(3000.0, -3000.0, 1500.0), size=(320, 240))]
@@ -148,9 +148,9 @@ def test_never_seen_silhouette_pixels_cost_nothing_uncovered():
                            cameras=cams, known=known)
     moved = np.repeat(x[None], 2, axis=0)
     moved[1, 11] += 0.8                                    # an arm raised
-    ignore = CueSet(model, CuesConfig(weights={"silhouette": 1.0}, silhouette_scale=0.05))
-    count = CueSet(model, CuesConfig(weights={"silhouette": 1.0}, silhouette_scale=0.05,
-                                     silhouette_unseen="count"))
+    ignore = CueSet(model, CuesConfig(weights={"silhouette": 1.0}, silhouette_scale=0.05,
+                                      silhouette_unseen="ignore"))
+    count = CueSet(model, CuesConfig(weights={"silhouette": 1.0}, silhouette_scale=0.05))
     expected_ignore, expected_count = np.zeros(2), np.zeros(2)
     for cam, mask, k in zip(cams, ghosts, known, strict=True):
         outline, valid = project_outlines(model.geometry(moved), cam)

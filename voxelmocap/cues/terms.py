@@ -412,8 +412,8 @@ class SilhouetteCue(Cue):
     (the union of the parts' projected convex outlines, :func:`project_outlines`), both at
     ``silhouette_size`` pixels along the longer side; the log-likelihood is ``−D / s`` with
     ``s = silhouette_scale``. A camera whose silhouette is empty adds nothing. With
-    ``silhouette_unseen = "ignore"`` (the default), ``S \\ M`` counts only the silhouette pixels
-    whose background the learnt plate has seen (``observation.known``).
+    ``silhouette_unseen = "ignore"`` (not the default), ``S \\ M`` counts only the silhouette
+    pixels whose background the learnt plate has seen (``observation.known``).
     """
 
     name = "silhouette"
