@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
+from functools import cached_property
 
 import numpy as np
 
@@ -235,10 +236,11 @@ class MeasurementStage:
                                 excluded=excluded, images=[images[n] for n in self.names],
                                 cameras=self.cameras, known=self.known)
 
-    @property
+    @cached_property
     def known(self) -> list | None:
         """Per camera, the pixels whose background a learnt plate has seen (None where all are,
-        or the background is not a learnt plate); None when no camera has never-seen pixels."""
+        or the background is not a learnt plate); None when no camera has never-seen pixels.
+        Computed once: the backgrounds are fixed when the stage is made."""
         out = []
         for n in self.names:
             k = getattr(self.backgrounds[n], "known", None)
