@@ -90,10 +90,11 @@ def table(rows, header) -> str:
 
 # ---------------------------------------------------------------------- silhouettes
 def _config(args):
-    """The default TrackConfig, with ``--plate-support`` applied."""
-    from voxelmocap.config import TrackConfig, with_overrides
+    """The TrackConfig of ``--config`` (default: the defaults), with ``--plate-support``."""
+    from voxelmocap.config import TrackConfig, config_from_toml, with_overrides
 
-    return with_overrides(TrackConfig(), **{
+    base = config_from_toml(args.config.read_text()) if args.config else TrackConfig()
+    return with_overrides(base, **{
         "measurement.silhouette.plate_support": True if args.plate_support else None})
 
 
@@ -410,7 +411,8 @@ def oracle_track(args) -> None:
     from voxelmocap.cli import main as cli
 
     _use_mediapipe_masks(args.ref)
-    extra = ["--seed", str(args.seed)] + (["--cues", args.cues] if args.cues else [])
+    extra = (["--seed", str(args.seed)] + (["--cues", args.cues] if args.cues else [])
+             + (["--config", str(args.config)] if args.config else []))
     cli(["track", str(args.demo), "--out", str(args.run), *extra])
 
 
@@ -428,6 +430,7 @@ def main(argv=None) -> int:
             p.add_argument("--step", type=int, default=5, help="score every STEP-th frame")
             p.add_argument("--plate-support", action="store_true",
                            help="learn the plate with [measurement.silhouette] plate_support")
+            p.add_argument("--config", type=Path, help="a track --config TOML (the measurement)")
         if name == "carving":
             p.add_argument("--mediapipe-masks", action="store_true",
                            help="carve MediaPipe's masks instead of the silhouettes")
@@ -448,6 +451,7 @@ def main(argv=None) -> int:
         if name == "oracle-track":
             p.add_argument("--seed", type=int, default=0)
             p.add_argument("--cues", help="track --cues (default: the config's)")
+            p.add_argument("--config", type=Path, help="track --config")
     args = ap.parse_args(argv)
     {"silhouettes": silhouettes, "carving": carving, "landmarks": landmarks,
      "overlays": overlays, "oracle-track": oracle_track, "diagnose": diagnose}[args.what](args)

@@ -80,3 +80,83 @@ def test_min_gain_must_not_be_negative():
     with pytest.raises(ValueError, match="min_gain"):
         sweep_limbs(Measurement(np.zeros(GRID.shape, bool), GRID), BodyModel(),
                     BodyModel().default_state(), min_gain=-1.0)
+
+
+def _crossed_legs(model):
+    """A pose whose thighs are adducted across each other (the left knee right of the right)."""
+    from voxelmocap.body import STATE_INDEX as I
+
+    x = model.default_state()
+    x[[I["l_hip_abd"], I["r_hip_abd"]]] = model.low[I["l_hip_abd"]]
+    x[[I["l_hip_flex"], I["r_hip_flex"]]] = (0.4, -0.2)
+    x[[I["l_knee"], I["r_knee"]]] = (0.6, 0.3)
+    return x
+
+
+def test_swapped_limbs_exchange_angles_and_places():
+    """Closed form: the first pose has the two limbs' angles exchanged exactly; the second puts
+    each knee and ankle where the other leg's were (to within the joint limits' reach), and
+    the rest of the body is untouched in both."""
+    from voxelmocap.joints import LANDMARK_NAMES as L
+    from voxelmocap.limb_search import swapped_limbs
+
+    model = BodyModel()
+    x = _crossed_legs(model)
+    angles, places = swapped_limbs(model, x, ("l_leg", "r_leg"))
+    left, right = (list(LIMBS[n][0]) for n in ("l_leg", "r_leg"))
+    np.testing.assert_array_equal(angles[left], x[right])
+    np.testing.assert_array_equal(angles[right], x[left])
+    rest = [d for d in range(27) if d not in left + right]
+    np.testing.assert_array_equal(places[rest], x[rest])
+    np.testing.assert_array_equal(angles[rest], x[rest])
+    before, after = model.landmarks(np.stack([x, places]))
+    for a, b in (("l_knee", "r_knee"), ("l_ankle", "r_ankle")):
+        i, j = L.index(a), L.index(b)
+        crossed = np.linalg.norm(before[i] - before[j])
+        assert np.linalg.norm(after[i] - before[j]) < 0.4 * crossed
+        assert np.linalg.norm(after[j] - before[i]) < 0.4 * crossed
+    assert np.all(model.low <= places) and np.all(places <= model.high)
+
+
+def test_the_swap_uncrosses_legs_a_one_limb_sweep_cannot():
+    """Truth: the voxels of the uncrossed legs (the crossed pose's legs moved to each other's
+    places); the start has them crossed. A sweep of one leg with the other held stays crossed
+    (either leg alone would overlap the other); with ``swaps`` the legs end near the truth."""
+    from voxelmocap.limb_search import swapped_limbs
+
+    model = BodyModel()
+    crossed = _crossed_legs(model)
+    truth = swapped_limbs(model, crossed, ("l_leg", "r_leg"))[1]
+    seen = Measurement(rasterise(model, truth[None], GRID) > 0, GRID)
+
+    def leg_error(state):
+        idx = [9, 10, 12, 13]                    # knees and ankles
+        return np.linalg.norm(model.landmarks(state[None])[0, idx]
+                              - model.landmarks(truth[None])[0, idx], axis=1).max()
+
+    plain, _ = sweep_limbs(seen, model, crossed, samples=256, sweeps=1, min_gain=2.0)
+    swapped, gains = sweep_limbs(seen, model, crossed, samples=256, sweeps=1, min_gain=2.0,
+                                 swaps=True)
+    assert leg_error(swapped) < 60.0 < leg_error(plain), (leg_error(swapped), leg_error(plain))
+    assert gains["l_leg"] > 0 and gains["r_leg"] > 0
+    before, after = log_likelihood(seen, model, np.stack([crossed, swapped]))
+    assert np.isclose(after - before, sum(gains.values()), atol=1e-6)
+
+
+def test_other_cues_are_added_to_the_limb_scores():
+    """An added term that only a raised left knee satisfies (voxels of the standing pose):
+    without it the knee stays straight, with it the sweep bends it to the term's optimum."""
+    from voxelmocap.body import STATE_INDEX as I
+
+    model = BodyModel()
+    stand = model.default_state()
+    seen = Measurement(rasterise(model, stand[None], GRID) > 0, GRID)
+    k = I["l_knee"]
+
+    def others(states):
+        return -200.0 * (np.asarray(states)[:, k] - 1.2) ** 2
+
+    alone, _ = sweep_limbs(seen, model, stand, samples=256, sweeps=1)
+    pulled, gains = sweep_limbs(seen, model, stand, samples=256, sweeps=1, others=others)
+    assert abs(alone[k] - stand[k]) < 0.2
+    assert abs(pulled[k] - 1.2) < 0.3 and gains["l_leg"] > 0

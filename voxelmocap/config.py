@@ -322,6 +322,10 @@ class FilterConfig:
     #: Sobol points per limb of the periodic sweep (rounded up to a power of two; the start's
     #: sweep uses 1024): 256 → 42.8 mm and ≈ 25 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms
     limb_sweep_samples: int = 256
+    #: the limb searches (the start's and the periodic one) first try each pair of limbs
+    #: exchanged (``voxelmocap.limb_search.swapped_limbs``): legs crossed onto each other's
+    #: voxels are one move from right, which a search of one limb cannot make
+    limb_swaps: bool = False
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""

@@ -26,6 +26,8 @@ True
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from .hierarchy import LIMBS
@@ -33,13 +35,18 @@ from .likelihood import DEFAULT_VARIANCES
 from .partial_likelihood import PartialScorer
 from .tracking.refine import pattern_search
 
-__all__ = ["LIMBS", "sweep_limbs"]
+__all__ = ["LIMBS", "swapped_limbs", "sweep_limbs"]
+
+#: the limb pairs a swap exchanges, with the landmarks each limb's angles place
+_PAIRS = {("l_leg", "r_leg"): (("l_knee", "r_knee"), ("l_ankle", "r_ankle")),
+          ("l_arm", "r_arm"): (("l_elbow", "r_elbow"), ("l_wrist", "r_wrist"))}
 
 
 def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, coverage: float = 0.0,
                 samples: int = 1024,
                 sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0,
-                min_gain: float = 0.0) -> tuple[np.ndarray, dict[str, float]]:
+                min_gain: float = 0.0, others: Callable[[np.ndarray], np.ndarray] | None = None,
+                swaps: bool = False) -> tuple[np.ndarray, dict[str, float]]:
     """Search every limb over its legal box on one frame, the rest of the body held.
 
     Parameters
@@ -67,6 +74,14 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         A limb moves only when the best angles found beat its current ones by more than this
         (log-likelihood units, ≥ 0): a tracked limb is not flipped into a configuration the
         frame's voxels barely prefer.
+    others : callable, optional
+        The log-likelihood ``(P, 27) -> (P,)`` of the other cues on whole states (e.g. the
+        silhouette cue), added to the voxel cue's partial scores: a visual hull several times
+        the body offers phantom volume that only the images rule out.
+    swaps : bool
+        Before the sweeps, try each pair's limbs exchanged (:func:`swapped_limbs`): legs
+        crossed onto each other's voxels, or the left arm raised for the right, are one move
+        away from right, which a search of one limb with the other held cannot make.
 
     Returns
     -------
@@ -81,6 +96,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         raise ValueError(f"min_gain must be >= 0, got {min_gain!r}")
     x = model.clip(np.asarray(state, dtype=float)[None])[0]
     gains = dict.fromkeys(LIMBS, 0.0)
+    if swaps:
+        x = _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others)
     m = int(np.ceil(np.log2(max(int(samples), 2))))
     for sweep in range(int(sweeps)):
         for j, (name, (dims, parts)) in enumerate(LIMBS.items()):
@@ -88,7 +105,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
             scorer = PartialScorer(observation, model, x, parts, dims)
 
             def ll(states, scorer=scorer):
-                return scorer.log_likelihood(states, variances=variances, coverage=coverage)
+                out = scorer.log_likelihood(states, variances=variances, coverage=coverage)
+                return out if others is None else out + others(states)
 
             current = float(ll(x[None])[0])
             u = qmc.Sobol(len(dims), seed=seed + 7 * sweep + 97 * j).random_base2(m)
@@ -108,3 +126,81 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
                 gains[name] += best_f - current
                 x = best_x.copy()
     return x, gains
+
+
+def swapped_limbs(model, state, pair: tuple[str, str]) -> np.ndarray:
+    """Two poses with the limbs of ``pair`` exchanged, the rest of the body held.
+
+    1. *angles*: each limb takes the other's angles (they are mirror-symmetric, so each limb
+       does the mirror of what the other did: the left arm raised instead of the right);
+    2. *places*: the limbs' angles refitted (least squares within the joint limits) so that
+       each limb's elbow and wrist, or knee and ankle, land where the other limb's are: legs
+       crossed onto each other's voxels uncrossed.
+
+    Parameters
+    ----------
+    model : BodyModel
+    state : (27,) array_like
+        A legal pose.
+    pair : (str, str)
+        ``("l_leg", "r_leg")`` or ``("l_arm", "r_arm")``.
+
+    Returns
+    -------
+    (2, 27) ndarray
+        The two legal poses (the joint limits may keep a limb short of the other's place).
+    """
+    from scipy.optimize import least_squares
+
+    from .joints import LANDMARK_NAMES
+
+    x = model.clip(np.asarray(state, dtype=float)[None])[0]
+    now = model.landmarks(x[None])[0]
+    moved, target = [], []
+    for a, b in _PAIRS[pair]:
+        i, j = LANDMARK_NAMES.index(a), LANDMARK_NAMES.index(b)
+        moved += [i, j]
+        target += [now[j], now[i]]
+    target = np.asarray(target).ravel()
+    dims = np.asarray(LIMBS[pair[0]][0] + LIMBS[pair[1]][0])
+    low, high = model.low[dims], model.high[dims]
+    high_ls = np.where(high > low, high, low + 1e-12)
+
+    def residual(v):
+        y = x.copy()
+        y[dims] = v
+        return model.landmarks(y[None])[0, moved].ravel() - target
+
+    n = len(dims) // 2
+    exchanged = np.clip(np.concatenate([x[dims[n:]], x[dims[:n]]]), low, high)
+    # the places fitted from both the limbs as they are and their exchanged angles
+    best, best_cost = x[dims], np.inf
+    for v0 in (x[dims], exchanged):
+        sol = least_squares(residual, np.clip(v0, low, high), bounds=(low, high_ls),
+                            x_scale=np.maximum(high - low, 1e-3), max_nfev=200)
+        if sol.cost < best_cost:
+            best, best_cost = sol.x, sol.cost
+    out = np.repeat(x[None], 2, axis=0)
+    out[0, dims] = exchanged
+    out[1, dims] = np.clip(best, low, high)
+    return out
+
+
+def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others):
+    """``x`` with each limb pair exchanged where that beats it by more than ``min_gain``."""
+    from .partial_likelihood import PartialScorer
+
+    for pair in _PAIRS:
+        dims = LIMBS[pair[0]][0] + LIMBS[pair[1]][0]
+        parts = LIMBS[pair[0]][1] + LIMBS[pair[1]][1]
+        scorer = PartialScorer(observation, model, x, parts, dims)
+        cand = np.concatenate([x[None], swapped_limbs(model, x, pair)])
+        scores = scorer.log_likelihood(cand, variances=variances, coverage=coverage)
+        if others is not None:
+            scores = scores + others(cand)
+        k = 1 + int(np.argmax(scores[1:]))
+        if scores[k] > scores[0] + min_gain:
+            for name in pair:                       # the gain shared by the two limbs
+                gains[name] += 0.5 * float(scores[k] - scores[0])
+            x = cand[k]
+    return x

@@ -489,11 +489,21 @@ class BodyTracker:
         new, gains = sweep_limbs(observation, self.model, est[0], variances=self.variances,
                                  coverage=self.coverage, sweeps=1, seed=self.filter.frame,
                                  min_gain=self.config.filter.limb_sweep_gain,
-                                 samples=self.config.filter.limb_sweep_samples)
+                                 samples=self.config.filter.limb_sweep_samples,
+                                 others=self._other_cues(observation),
+                                 swaps=self.config.filter.limb_swaps)
         if sum(gains.values()) > 0:
             self.filter.move_estimate(new)
             return new[None]
         return est
+
+    def _other_cues(self, observation):
+        """The cues other than the voxel one, ``(P, 27) -> (P,)`` on whole states, or None when
+        the voxel cue is alone (the limb search adds them to its partial voxel scores)."""
+        if self.cues.voxel_only:
+            return None
+        score = self.cues.frame(observation, reference=self._cue_reference, without=("voxel",))
+        return None if self.cues.needs_reference else score    # no pose to learn from yet
 
     def _hull_is_tight(self, observation) -> bool:
         """Whether the frame's occupied volume is at most ``filter.limb_sweep_max_hull`` times
@@ -513,10 +523,12 @@ class BodyTracker:
 
         states = np.asarray(states, dtype=float)
         out = np.atleast_2d(states).copy()
+        others = self._other_cues(observation)
         moved = 0
         for k in range(len(out)):
             out[k], gains = sweep_limbs(observation, self.model, out[k], variances=self.variances,
-                                        coverage=self.coverage, seed=k)
+                                        coverage=self.coverage, seed=k, others=others,
+                                        swaps=self.config.filter.limb_swaps)
             moved += sum(g > 0 for g in gains.values())
         return out.reshape(states.shape), moved
 

@@ -214,6 +214,48 @@ def test_hierarchical_search_adds_image_cues_on_whole_states():
         assert np.allclose(got, tracker.cues.log_likelihood(obs, states))
 
 
+def test_the_limb_searches_score_the_other_cues_on_whole_states(monkeypatch):
+    """The start's and the periodic limb search get the fused likelihood of the cues other than
+    the voxel one (a visual hull offers phantom volume the silhouettes rule out); with the voxel
+    cue alone they get none."""
+    import voxelmocap.limb_search as limb_search
+    from voxelmocap.tracker import BodyTracker
+
+    model = BodyModel()
+    x = model.default_state()
+    cams = [_camera(size=(320, 240)), _camera("D", eye=(3000.0, -3000.0, 1500.0), size=(320, 240))]
+    obs = _observation(model, x, cams, 320)
+    seen = []
+    real = limb_search.sweep_limbs
+
+    def spy(observation, model, state, **kw):
+        seen.append(kw.get("others"))
+        return real(observation, model, state, **{**kw, "samples": 8, "refine_evaluations": 4})
+
+    monkeypatch.setattr(limb_search, "sweep_limbs", spy)
+    rng = np.random.default_rng(2)
+    states = model.clip(x[None] + rng.normal(0.0, 0.2, (5, 27)) * (np.arange(27) >= 6))
+    for weights, fused in (({"voxel": 1.0, "silhouette": 0.5}, True), ({"voxel": 1.0}, False)):
+        config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 30,
+                                                  "filter.limb_sweep_every": 1,
+                                                  "filter.limb_sweep_max_hull": 1e6})
+        config = dataclasses.replace(config, cues=CuesConfig(weights=weights))
+        tracker = BodyTracker(model, config, seed=0)
+        seen.clear()
+        tracker.sweep_limbs(obs, x[None])                    # the start's search
+        tracker.start("test", x)
+        tracker.step(obs)                                    # the periodic one
+        assert len(seen) == 2
+        for others in seen:
+            if fused:                                        # the silhouette term, weighted
+                np.testing.assert_allclose(
+                    others(states), tracker.cues.log_likelihood(obs, states)
+                    - tracker.cues.log_likelihood(obs, states, without=("silhouette",)))
+                assert np.ptp(others(states)) > 0
+            else:
+                assert others is None
+
+
 def test_silhouette_settings_are_checked():
     with pytest.raises(InputError, match="silhouette_size"):
         config_from_toml("[cues]\nsilhouette_size = 0\n", "f.toml")
