@@ -314,12 +314,10 @@ class FilterConfig:
     #: jog's left forearm flipped for a gain of 0.23 and stayed folded). 0 → 44.0 mm, 2 → 43.6,
     #: 5 → 44.3 (the gestures' forearm then unfolds less often)
     limb_sweep_gain: float = 2.0
-    #: ... and, with the voxel cue alone, only on frames whose occupied volume is at most this
-    #: many times the body model's: 7 rendered cameras give 0.75–1.3 ×, 4 of them 3–6 ×, the
-    #: Pose2Sim demo's four real views ≈ 5 ×, where every sweep moved a limb into phantom volume
-    #: (a leg swung by 1.9 rad, the error up 100 mm at each sweep frame: 270 → 456 mm over the
-    #: clip). With an image cue (the silhouettes score the swept limb too) it always runs: on
-    #: the demo with MediaPipe's masks 116 mm gated → 74 mm (docs/benchmarks.md)
+    #: ... and only on frames whose occupied volume is at most this many times the body
+    #: model's: 7 rendered cameras give 0.75–1.3 ×, 4 of them 3–6 ×, the Pose2Sim demo's four
+    #: real views ≈ 5 ×, where every sweep moved a limb into phantom volume (a leg swung by
+    #: 1.9 rad, the error up 100 mm at each sweep frame: 270 → 456 mm over the clip)
     limb_sweep_max_hull: float = 2.0
     #: Sobol points per limb of the periodic sweep (rounded up to a power of two; the start's
     #: sweep uses 1024): 256 → 42.8 mm and ≈ 25 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms

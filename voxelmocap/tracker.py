@@ -507,9 +507,9 @@ class BodyTracker:
 
     def _hull_is_tight(self, observation) -> bool:
         """Whether the frame's occupied volume is at most ``filter.limb_sweep_max_hull`` times
-        the body model's: the periodic sweep with the voxel cue alone trusts the hull to show
-        where a limb is, and a hull several times the body (few cameras, poor silhouettes)
-        offers phantom volume that a swept limb scores well in."""
+        the body model's: the periodic sweep trusts the hull to show where a limb is, and a
+        hull several times the body (few cameras, poor silhouettes) offers phantom volume that
+        a swept limb scores well in."""
         from .recovery import body_volume
 
         occupied = float(observation.n_occupied) * float(observation.grid.voxel_size) ** 3
@@ -666,9 +666,7 @@ class BodyTracker:
             self.settle(observation)
         est = self.model.clip(self._run_filter(observation, spent)[None])
         every = self.config.filter.limb_sweep_every
-        # the hull gate guards the voxel cue alone: an image cue rules phantom volume out
-        if every and pf.frame % every == 0 and (not self.cues.voxel_only
-                                                or self._hull_is_tight(observation)):
+        if every and pf.frame % every == 0 and self._hull_is_tight(observation):
             est = self._sweep_estimate(observation, est)
         # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
         # joints picked by index); the part scores run their own inside the likelihood kernel.

@@ -216,9 +216,8 @@ def test_hierarchical_search_adds_image_cues_on_whole_states():
 
 def test_the_limb_searches_score_the_other_cues_on_whole_states(monkeypatch):
     """The start's and the periodic limb search get the fused likelihood of the cues other than
-    the voxel one (a visual hull offers phantom volume the silhouettes rule out), and the
-    periodic one runs whatever the hull's volume; with the voxel cue alone they get none and
-    the hull gate (here set below any hull) skips the periodic one."""
+    the voxel one (a visual hull offers phantom volume the silhouettes rule out); with the voxel
+    cue alone they get none."""
     import voxelmocap.limb_search as limb_search
     from voxelmocap.tracker import BodyTracker
 
@@ -239,14 +238,14 @@ def test_the_limb_searches_score_the_other_cues_on_whole_states(monkeypatch):
     for weights, fused in (({"voxel": 1.0, "silhouette": 0.5}, True), ({"voxel": 1.0}, False)):
         config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 30,
                                                   "filter.limb_sweep_every": 1,
-                                                  "filter.limb_sweep_max_hull": 1e-6})
+                                                  "filter.limb_sweep_max_hull": 1e6})
         config = dataclasses.replace(config, cues=CuesConfig(weights=weights))
         tracker = BodyTracker(model, config, seed=0)
         seen.clear()
         tracker.sweep_limbs(obs, x[None])                    # the start's search
         tracker.start("test", x)
         tracker.step(obs)                                    # the periodic one
-        assert len(seen) == (2 if fused else 1)
+        assert len(seen) == 2
         for others in seen:
             if fused:                                        # the silhouette term, weighted
                 np.testing.assert_allclose(
