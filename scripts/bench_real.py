@@ -14,12 +14,14 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
   by the share of the reference's 3D keypoints (12 body joints) inside the occupancy (grown by
   one voxel) and by the IoU of the occupancy's silhouette, projected back into each view, with
   MediaPipe's mask (alone, and intersected with the view's silhouette). ``--plate-support``
-  (``silhouettes``, ``carving``): the plate learnt with ``plate_support``.
+  (``silhouettes``, ``carving``): the plate learnt with ``plate_support``; ``--config F``: the
+  measurement settings of a ``track --config`` file.
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
   mean error, share within 100 mm (head top excluded: MediaPipe has no head top).
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
 * ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
-  every tracked frame (how much of the error the silhouettes cause).
+  every tracked frame (how much of the error the silhouettes cause); ``--cues``, ``--seed`` and
+  ``--config`` as for ``track``.
 * ``diagnose RUN``: a diagnostic: the run's body fitted to the reference's landmarks (the
   metric's floor for that body) and scored by the run's own cues against the run's estimate —
   does the search miss a better pose, or does the likelihood prefer the wrong one?

@@ -1,6 +1,7 @@
 """The global limb search of a start (voxelmocap.limb_search)."""
 
 import numpy as np
+import pytest
 
 from voxelmocap.body import BodyModel
 from voxelmocap.grid import VoxelGrid
@@ -75,8 +76,6 @@ def test_a_limb_moves_only_when_it_gains_more_than_min_gain():
 
 
 def test_min_gain_must_not_be_negative():
-    import pytest
-
     with pytest.raises(ValueError, match="min_gain"):
         sweep_limbs(Measurement(np.zeros(GRID.shape, bool), GRID), BodyModel(),
                     BodyModel().default_state(), min_gain=-1.0)
@@ -160,3 +159,27 @@ def test_other_cues_are_added_to_the_limb_scores():
     pulled, gains = sweep_limbs(seen, model, stand, samples=256, sweeps=1, others=others)
     assert abs(alone[k] - stand[k]) < 0.2
     assert abs(pulled[k] - 1.2) < 0.3 and gains["l_leg"] > 0
+
+
+def test_the_voxel_weight_scales_the_voxel_scores():
+    """Scaling every score by 2 changes no decision (``min_gain`` 0): the same pose, gains
+    doubled; at weight 0 only the added term counts."""
+    model = BodyModel()
+    truth = _random_limbs(model, np.random.default_rng(3))
+    seen = Measurement(rasterise(model, truth[None], GRID) > 0, GRID)
+    start = model.default_state()
+    one, g1 = sweep_limbs(seen, model, start, samples=128, sweeps=1)
+    two, g2 = sweep_limbs(seen, model, start, samples=128, sweeps=1, voxel_weight=2.0)
+    np.testing.assert_array_equal(one, two)
+    for name in LIMBS:
+        assert g2[name] == pytest.approx(2.0 * g1[name])
+    k = 25                                                   # left knee
+
+    def others(states):
+        return -np.abs(np.asarray(states)[:, k] - 1.0)
+
+    none, gains = sweep_limbs(seen, model, start, samples=128, sweeps=1, voxel_weight=0.0,
+                              others=others)
+    assert abs(none[k] - 1.0) < 0.05
+    for name in ("r_leg", "l_arm", "r_arm"):                 # nothing else scores
+        assert gains[name] == 0.0

@@ -46,7 +46,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
                 samples: int = 1024,
                 sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0,
                 min_gain: float = 0.0, others: Callable[[np.ndarray], np.ndarray] | None = None,
-                swaps: bool = False) -> tuple[np.ndarray, dict[str, float]]:
+                voxel_weight: float = 1.0, swaps: bool = False
+                ) -> tuple[np.ndarray, dict[str, float]]:
     """Search every limb over its legal box on one frame, the rest of the body held.
 
     Parameters
@@ -78,6 +79,9 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         The log-likelihood ``(P, 27) -> (P,)`` of the other cues on whole states (e.g. the
         silhouette cue), added to the voxel cue's partial scores: a visual hull several times
         the body offers phantom volume that only the images rule out.
+    voxel_weight : float
+        Weight of the voxel cue's scores in that sum (the fused likelihood's; 0 when the voxel
+        cue is not selected).
     swaps : bool
         Before the sweeps, try each pair's limbs exchanged (:func:`swapped_limbs`): legs
         crossed onto each other's voxels, or the left arm raised for the right, are one move
@@ -97,7 +101,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
     x = model.clip(np.asarray(state, dtype=float)[None])[0]
     gains = dict.fromkeys(LIMBS, 0.0)
     if swaps:
-        x = _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others)
+        x = _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others,
+                       voxel_weight)
     m = int(np.ceil(np.log2(max(int(samples), 2))))
     for sweep in range(int(sweeps)):
         for j, (name, (dims, parts)) in enumerate(LIMBS.items()):
@@ -105,7 +110,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
             scorer = PartialScorer(observation, model, x, parts, dims)
 
             def ll(states, scorer=scorer):
-                out = scorer.log_likelihood(states, variances=variances, coverage=coverage)
+                out = voxel_weight * scorer.log_likelihood(states, variances=variances,
+                                                           coverage=coverage)
                 return out if others is None else out + others(states)
 
             current = float(ll(x[None])[0])
@@ -186,7 +192,8 @@ def swapped_limbs(model, state, pair: tuple[str, str]) -> np.ndarray:
     return out
 
 
-def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others):
+def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others,
+               voxel_weight):
     """``x`` with each limb pair exchanged where that beats it by more than ``min_gain``."""
     from .partial_likelihood import PartialScorer
 
@@ -195,7 +202,8 @@ def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, othe
         parts = LIMBS[pair[0]][1] + LIMBS[pair[1]][1]
         scorer = PartialScorer(observation, model, x, parts, dims)
         cand = np.concatenate([x[None], swapped_limbs(model, x, pair)])
-        scores = scorer.log_likelihood(cand, variances=variances, coverage=coverage)
+        scores = voxel_weight * scorer.log_likelihood(cand, variances=variances,
+                                                      coverage=coverage)
         if others is not None:
             scores = scores + others(cand)
         k = 1 + int(np.argmax(scores[1:]))

@@ -491,11 +491,17 @@ class BodyTracker:
                                  min_gain=self.config.filter.limb_sweep_gain,
                                  samples=self.config.filter.limb_sweep_samples,
                                  others=self._other_cues(observation),
+                                 voxel_weight=self._voxel_weight,
                                  swaps=self.config.filter.limb_swaps)
         if sum(gains.values()) > 0:
             self.filter.move_estimate(new)
             return new[None]
         return est
+
+    @property
+    def _voxel_weight(self) -> float:
+        """The voxel cue's weight in the fused likelihood (0 when it is not selected)."""
+        return float(dict(self.config.cues.weights).get("voxel", 0.0))
 
     def _other_cues(self, observation):
         """The cues other than the voxel one, ``(P, 27) -> (P,)`` on whole states, or None when
@@ -528,6 +534,7 @@ class BodyTracker:
         for k in range(len(out)):
             out[k], gains = sweep_limbs(observation, self.model, out[k], variances=self.variances,
                                         coverage=self.coverage, seed=k, others=others,
+                                        voxel_weight=self._voxel_weight,
                                         swaps=self.config.filter.limb_swaps)
             moved += sum(g > 0 for g in gains.values())
         return out.reshape(states.shape), moved
