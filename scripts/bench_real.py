@@ -17,7 +17,8 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
   (``silhouettes``, ``carving``): the plate learnt with ``plate_support``; ``--config F``: the
   measurement settings of a ``track --config`` file.
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
-  mean error, share within 100 mm (head top excluded: MediaPipe has no head top).
+  mean error, share within 100 mm (head top excluded: MediaPipe has no head top); ``--every N``
+  also prints every N-th frame's error per landmark.
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
 * ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
   every tracked frame (how much of the error the silhouettes cause); ``--cues``, ``--seed`` and
@@ -240,8 +241,10 @@ def landmarks(args) -> None:
     _, result = _result(args.run)
     errs = []
     per = {k: [] for k in LANDMARK_MAP}
+    rows = []
     for i, f in enumerate(result.frames):
         truth = ref["points_mm"][int(f) - 1]
+        row = {}
         for j, name in enumerate(LANDMARK_NAMES):
             if name not in LANDMARK_MAP:
                 continue                       # head top: MediaPipe has none
@@ -251,6 +254,12 @@ def landmarks(args) -> None:
             e = float(np.linalg.norm(result.landmarks[i, j] - t))
             errs.append(e)
             per[name].append(e)
+            row[name] = e
+        rows.append((int(f), row))
+    if args.every:
+        # one line per frame: where in the clip a track went wrong, and which limb
+        print(table([[f] + [f"{row[k]:.0f}" if k in row else "" for k in LANDMARK_MAP]
+                     for f, row in rows[::args.every]], ["frame", *LANDMARK_MAP]))
     errs = np.asarray(errs)
     print(f"{len(result.frames)} frames, {len(errs)} landmark errors (head top excluded): mean "
           f"{errs.mean():.0f} mm, median {np.median(errs):.0f} mm, within 100 mm "
@@ -450,6 +459,9 @@ def main(argv=None) -> int:
             p.add_argument("--unseen", choices=("ignore", "count"),
                            help="[cues] silhouette_unseen for the scoring (default: the run's; "
                                 "runs older than the key read as the default, count)")
+        if name == "landmarks":
+            p.add_argument("--every", type=int, default=0,
+                           help="also print every EVERY-th frame's errors per landmark")
         if name == "oracle-track":
             p.add_argument("--seed", type=int, default=0)
             p.add_argument("--cues", help="track --cues (default: the config's)")
