@@ -195,8 +195,6 @@ def swapped_limbs(model, state, pair: tuple[str, str]) -> np.ndarray:
 def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others,
                voxel_weight):
     """``x`` with each limb pair exchanged where that beats it by more than ``min_gain``."""
-    from .partial_likelihood import PartialScorer
-
     for pair in _PAIRS:
         dims = LIMBS[pair[0]][0] + LIMBS[pair[1]][0]
         parts = LIMBS[pair[0]][1] + LIMBS[pair[1]][1]

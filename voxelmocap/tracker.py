@@ -618,9 +618,7 @@ class BodyTracker:
         from .hierarchy import log_likelihood_for
 
         # cues other than the voxel one, on whole states (prepared and learnt once per frame)
-        others = (None if self.cues.voxel_only
-                  else self.cues.frame(observation, reference=self._cue_reference,
-                                       without=("voxel",)))
+        others = self._other_cues(observation)
 
         def factory(k, reference):
             t0 = time.perf_counter()
