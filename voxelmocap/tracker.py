@@ -505,11 +505,11 @@ class BodyTracker:
 
     def _other_cues(self, observation):
         """The cues other than the voxel one, ``(P, 27) -> (P,)`` on whole states, or None when
-        the voxel cue is alone (the limb search adds them to its partial voxel scores)."""
+        the voxel cue is alone (the limb search adds them to its partial voxel scores). A cue
+        still without its reference appearance (no pose yet to learn it from) scores 0."""
         if self.cues.voxel_only:
             return None
-        score = self.cues.frame(observation, reference=self._cue_reference, without=("voxel",))
-        return None if self.cues.needs_reference else score    # no pose to learn from yet
+        return self.cues.frame(observation, reference=self._cue_reference, without=("voxel",))
 
     def _hull_is_tight(self, observation) -> bool:
         """Whether the frame's occupied volume is at most ``filter.limb_sweep_max_hull`` times

@@ -256,6 +256,28 @@ def test_the_limb_searches_score_the_other_cues_on_whole_states(monkeypatch):
                 assert others is None
 
 
+def test_the_start_search_scores_the_silhouettes_before_other_cues_have_a_reference():
+    """With a cue that learns its reference appearance from a pose (roi) beside the silhouette
+    cue, the start's limb search (no pose yet) still gets the silhouette term; the roi term,
+    not learnt, adds 0."""
+    from voxelmocap.tracker import BodyTracker
+
+    model = BodyModel()
+    x = model.default_state()
+    cams = [_camera(size=(320, 240)), _camera("D", eye=(3000.0, -3000.0, 1500.0), size=(320, 240))]
+    obs = _observation(model, x, cams, 320)
+    config = dataclasses.replace(TrackConfig(), cues=CuesConfig(
+        weights={"voxel": 1.0, "silhouette": 0.5, "roi": 1.0}))
+    tracker = BodyTracker(model, config, seed=0)
+    others = tracker._other_cues(obs)
+    assert tracker.cues.needs_reference                  # nothing to learn roi from yet
+    rng = np.random.default_rng(4)
+    states = model.clip(x[None] + rng.normal(0.0, 0.2, (5, 27)) * (np.arange(27) >= 6))
+    silhouette = 0.5 * tracker.cues.evaluate(obs, states, ["silhouette"])["silhouette"]
+    np.testing.assert_allclose(others(states), silhouette)
+    assert np.ptp(silhouette) > 0
+
+
 def test_silhouette_settings_are_checked():
     with pytest.raises(InputError, match="silhouette_size"):
         config_from_toml("[cues]\nsilhouette_size = 0\n", "f.toml")
