@@ -234,6 +234,25 @@ def _project_camera_without_video(data, tmp):
     return _track_project(root, tmp)
 
 
+def _masks(data, tmp, *, cameras=("C1", "C2", "BW1"), frames=None, size=None):
+    """The project and a masks folder of black PNGs per camera (``frames`` each, default as many
+    as the video has, at ``size``, default the video's)."""
+    import cv2
+
+    root = _project(data, tmp)
+    for cam in cameras:
+        cap = cv2.VideoCapture(str(root / "videos" / f"{cam}.avi"))
+        n, w, h = (int(cap.get(k)) for k in (cv2.CAP_PROP_FRAME_COUNT, cv2.CAP_PROP_FRAME_WIDTH,
+                                             cv2.CAP_PROP_FRAME_HEIGHT))
+        cap.release()
+        folder = tmp / "masks" / cam
+        folder.mkdir(parents=True)
+        w, h = size or (w, h)
+        for k in range(frames or n):
+            cv2.imwrite(str(folder / f"{k + 1:06d}.png"), np.zeros((h, w), np.uint8))
+    return [*_track_project(root, tmp), "--masks", str(tmp / "masks")]
+
+
 def _project_video_without_camera(data, tmp):
     import shutil
 
@@ -390,6 +409,12 @@ CASES: list[Case] = [
     Case("project: the calibration names a camera the videos lack",
          _project_camera_without_video,
          ("{tmp}/proj/videos", "calibration camera BW1 (Calib.toml) has no video")),
+    Case("track --masks: no masks for a camera", lambda d, t: _masks(d, t, cameras=("C1", "C2")),
+         ("{tmp}/masks", "no masks for camera BW1")),
+    Case("track --masks: fewer mask frames than video frames",
+         lambda d, t: _masks(d, t, frames=2), ("{tmp}/masks/C1", "2 mask frames")),
+    Case("track --masks: masks of another size than the video",
+         lambda d, t: _masks(d, t, size=(64, 48)), ("{tmp}/masks/C1", "masks are 64x48")),
     Case("project: a video no calibration camera matches", _project_video_without_camera,
          ("{tmp}/proj/videos/C9.avi", "no camera of the calibration")),
     Case("project: an unreadable video", _project_unreadable_video,

@@ -78,10 +78,11 @@ class MeasurementStage:
         The cameras (a :class:`~voxelmocap.camera.Rig`); their names key the images.
     grid : VoxelGrid
         The voxel grid.
-    backgrounds : mapping of str to background model
+    backgrounds : mapping of str to background model, or None
         One :class:`~voxelmocap.silhouette.GaussianBackground` or
         :class:`~voxelmocap.silhouette.Mog2Background` per camera name
-        (:func:`~voxelmocap.silhouette.build_backgrounds` makes them).
+        (:func:`~voxelmocap.silhouette.build_backgrounds` makes them); None when every frame's
+        silhouettes are given to :meth:`measure` (person masks from another tool).
     config : SilhouetteConfig, optional
         Thresholds (per camera), shadow suppression and clean-up.
     min_views : int, optional
@@ -109,7 +110,7 @@ class MeasurementStage:
                  person_only: bool = False, hole_reach: float = 0.0):
         self.cameras = list(rig)
         self.names = [c.name for c in self.cameras]
-        missing = [n for n in self.names if n not in backgrounds]
+        missing = [] if backgrounds is None else [n for n in self.names if n not in backgrounds]
         if missing:
             raise InputError("backgrounds", f"no background model for camera(s) {', '.join(missing)}")
         if not sigma > 0:
@@ -120,7 +121,7 @@ class MeasurementStage:
             raise InputError("min_views", f"must be an integer between 1 and {n_cam} (the number "
                                           f"of cameras), got {min_views!r}")
         self.grid = grid
-        self.backgrounds = dict(backgrounds)
+        self.backgrounds = None if backgrounds is None else dict(backgrounds)
         self.config = config or SilhouetteConfig()
         self.min_views = None if min_views is None else int(min_views)
         self.sigma = float(sigma)
@@ -147,6 +148,9 @@ class MeasurementStage:
         (N_C, H, W) bool ndarray
             In rig order; a list of ``(H_c, W_c)`` masks when the cameras differ in size.
         """
+        if self.backgrounds is None:
+            raise InputError("backgrounds", "this stage has no background model: give each "
+                                            "frame's silhouettes to measure()")
         missing = [n for n in self.names if n not in images]
         if missing:
             raise InputError("images", f"no image for camera(s) {', '.join(missing)}")
@@ -207,13 +211,16 @@ class MeasurementStage:
             occ &= seen.reshape(self.grid.shape)
         return occ
 
-    def measure(self, images: Mapping) -> VoxelObservation:
+    def measure(self, images: Mapping, masks=None) -> VoxelObservation:
         """The observation of one frame: silhouettes, occupancy, surface maps and timings.
 
         Parameters
         ----------
         images : mapping of str to (H, W) or (H, W, 3) uint8 ndarray
             One decoded image per camera name.
+        masks : sequence of (H_c, W_c) bool ndarray, optional
+            The frame's silhouettes in rig order, given (person masks from another tool):
+            no background subtraction.
 
         Returns
         -------
@@ -222,7 +229,10 @@ class MeasurementStage:
             seconds), ``empty`` and ``excluded`` (camera name → reason) set.
         """
         t0 = time.perf_counter()
-        masks = self.masks(images)
+        if masks is None:
+            masks = self.masks(images)
+        else:
+            masks = self._given(masks)
         t1 = time.perf_counter()
         excluded = {}
         for name, mask in zip(self.names, masks, strict=True):
@@ -236,11 +246,25 @@ class MeasurementStage:
                                 excluded=excluded, images=[images[n] for n in self.names],
                                 cameras=self.cameras, known=self.known)
 
+    def _given(self, masks):
+        """Given silhouettes checked against the rig (stacked when the cameras agree in size)."""
+        masks = [np.asarray(m, bool) for m in masks]
+        if len(masks) != len(self.cameras):
+            raise InputError("masks", f"{len(masks)} silhouettes for {len(self.cameras)} cameras")
+        for cam, m in zip(self.cameras, masks, strict=True):
+            w, h = cam.size
+            if m.shape != (h, w):
+                raise InputError("masks", f"silhouette of {cam.name} is {m.shape[1]}x"
+                                          f"{m.shape[0]}, its calibration says {w}x{h}")
+        return np.stack(masks) if len({m.shape for m in masks}) == 1 else masks
+
     @cached_property
     def known(self) -> list | None:
         """Per camera, the pixels whose background a learnt plate has seen (None where all are,
         or the background is not a learnt plate); None when no camera has never-seen pixels.
         Computed once: the backgrounds are fixed when the stage is made."""
+        if self.backgrounds is None:
+            return None
         out = []
         for n in self.names:
             k = getattr(self.backgrounds[n], "known", None)

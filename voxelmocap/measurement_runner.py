@@ -46,7 +46,7 @@ GRID_FRAMES = 20
 
 
 def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxel_size: float,
-                *, margin: float, bytes_per_voxel: float | None = None):
+                *, margin: float, bytes_per_voxel: float | None = None, masks=None):
     """The grid around the person: the box of the person's voxels over sampled frames.
 
     Parameters
@@ -59,6 +59,10 @@ def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxe
         Voxel edge of the grid returned (mm).
     margin : float
         Grows the box on every side (mm); the floor side stops at the coarse grid's floor.
+    bytes_per_voxel : float, optional
+        Checks that the grid's volumes fit in memory.
+    masks : sequence of sequences of (H_c, W_c) bool ndarray, optional
+        The silhouettes of each sampled frame (rig order), given instead of segmented.
 
     Returns
     -------
@@ -75,7 +79,8 @@ def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxe
     n = len(next(iter(samples.values())))
     boxes = []
     for f in range(n):
-        obs = stage.measure({c: samples[c][f] for c in stage.names})
+        obs = stage.measure({c: samples[c][f] for c in stage.names},
+                            masks=None if masks is None else masks[f])
         ijk = np.argwhere(obs.occupancy)
         if len(ijk):
             boxes.append((coarse.low + ijk.min(axis=0) * coarse.voxel_size,
@@ -131,7 +136,7 @@ class MeasurementRunner(MeasurementStage):
         Per camera, the frames it was left out of the carving.
     """
 
-    def __init__(self, seq, config: TrackConfig, log=None):
+    def __init__(self, seq, config: TrackConfig, log=None, *, person_masks=None):
         from .background import learn_plates, plate_from_frames
         from .grid import VoxelGrid
         from .silhouette import build_backgrounds
@@ -151,6 +156,11 @@ class MeasurementRunner(MeasurementStage):
                                  f"unknown camera {unknown[0]!r} (this sequence has "
                                  f"{', '.join(seq.all_camera_names)})")
         n_cam = len(seq.camera_names)
+        #: the silhouettes of every frame, given (:class:`voxelmocap.io.masks.PersonMasks`)
+        self.person_masks = person_masks
+        if person_masks is not None:
+            self._given_masks(seq, config, person_masks)
+            return
         frames = {}
         for cam in seq.camera_names:
             paths = seq.background_paths(cam)
@@ -228,6 +238,57 @@ class MeasurementRunner(MeasurementStage):
                          hole_reach=mc.carve_hole_reach)
         self.sequence = seq
 
+    def _given_masks(self, seq, config: TrackConfig, person_masks) -> None:
+        """Set up for silhouettes given with the recording: no background model.
+
+        Given masks are treated like a learnt plate's silhouettes when there are four cameras or
+        more: one hole tolerated near the silhouette (another tool's masks miss a limb in one
+        view now and then), the grid placed around the person from the masks of
+        :data:`GRID_FRAMES` frames spread over the sequence. With fewer cameras the coarse carve's
+        largest component may be a phantom of the cone intersections, not the person: the grid
+        is the rig's floor box. The largest 3D component is kept in every case.
+        """
+        from .grid import VoxelGrid
+
+        mc = config.measurement
+        rig, n_cam = seq.rig, len(seq.camera_names)
+        self.learnt_plate, self.adaptive = False, False
+        holes = mc.carve_holes if mc.carve_holes is not None else (1 if n_cam >= 4 else 0)
+        person_only = mc.person_only if mc.person_only is not None else True
+        placement = mc.grid_placement
+        if placement == "auto":
+            placement = "person" if n_cam >= 4 else "rig"
+        if mc.grid_origin is not None:
+            grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
+            grid.check_memory(8.0, what="the measurement volumes")
+        elif placement == "person":
+            coarse = VoxelGrid.from_rig(rig, mc.coarse_voxel_size, min_views=min(3, n_cam),
+                                        height=COARSE_HEIGHT_MM, probe_height=COARSE_PROBE_MM,
+                                        margin=COARSE_MARGIN_MM, bytes_per_voxel=4.0 * n_cam + 8)
+            samples = self._sample_frames(seq, GRID_FRAMES)
+            numbers = np.asarray(seq.frame_numbers)
+            pick = numbers[np.unique(np.linspace(0, len(numbers) - 1,
+                                                 min(len(numbers), GRID_FRAMES))
+                                     .round().astype(int))]
+            given = [m for _, m in person_masks.read(pick)]
+            stage = MeasurementStage(rig, coarse, None, mc.silhouette, holes=holes,
+                                     person_only=True, hole_reach=mc.carve_hole_reach)
+            grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
+                               bytes_per_voxel=8.0, masks=given)
+            self._say(f"grid placed around the person ({mc.grid_margin:g} mm margin): "
+                      f"{grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} voxels from "
+                      f"({', '.join(f'{v:.0f}' for v in grid.low)}) to "
+                      f"({', '.join(f'{v:.0f}' for v in grid.high)}) mm")
+        else:
+            grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
+        self._say("silhouettes: the person masks given in "
+                  f"{Path(next(iter(person_masks.paths.values()))).parent} (no background "
+                  "subtraction)")
+        MeasurementStage.__init__(self, rig, grid, None, mc.silhouette, min_views=mc.min_views,
+                                  sigma=mc.surface_sigma, holes=holes, person_only=person_only,
+                                  hole_reach=mc.carve_hole_reach)
+        self.sequence = seq
+
     def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:
         """``count`` frames spread evenly over the sequence, per camera (F, H, W, C) uint8."""
         numbers = np.asarray(seq.frame_numbers)
@@ -267,7 +328,13 @@ class MeasurementRunner(MeasurementStage):
         The first frame with no person in view is logged, later ones only counted (see
         :meth:`summary`); a camera left out of the carving is logged once, at its first such frame.
         """
-        obs = super().measure(images)
+        given = None
+        if self.person_masks is not None:
+            if frame is None:
+                raise InputError("masks", "a frame measured with given person masks needs its "
+                                          "frame number")
+            given = self.person_masks.of(frame)
+        obs = super().measure(images, masks=given)
         where = "a frame" if frame is None else f"frame {int(frame)}"
         for cam, reason in obs.excluded.items():
             seen = self.excluded_frames.setdefault(cam, [])
@@ -278,7 +345,8 @@ class MeasurementRunner(MeasurementStage):
                 seen.append(int(frame))
         if not obs.empty and not obs.occupancy.any() and not self._said_no_voxel:
             self._said_no_voxel = True
-            how = ("the background plate learnt from the sequence" if self.learnt_plate
+            how = ("the person masks given" if self.person_masks is not None
+                   else "the background plate learnt from the sequence" if self.learnt_plate
                    else "the background model")
             self._say(f"{where}: the silhouettes carve into no voxel: the cameras disagree "
                       f"about the person; check {how} (e.g. with 'dump --masks') and the "

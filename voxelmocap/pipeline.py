@@ -137,7 +137,8 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                    config: TrackConfig | None = None, frames: str | None = None,
                    cameras=None, seed: int = 0, resume: bool = False, overwrite: bool = False,
                    progress: bool = True, log=None, fps: float | None = None,
-                   recorder=None, trial: str | None = None, calibration=None) -> TrackOutcome:
+                   recorder=None, trial: str | None = None, calibration=None,
+                   masks=None) -> TrackOutcome:
     """Track one sequence and write its results (see the module docstring).
 
     Parameters
@@ -181,7 +182,11 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         Project trial (default: the only one). Results go to ``RUN/<trial>/<trial>.*``.
     calibration : str or os.PathLike, optional
         Project only: a calibration file instead of the project's own.
+    masks : str or os.PathLike, optional
+        A folder of person masks per camera (:class:`voxelmocap.io.masks.PersonMasks`): the
+        silhouettes, instead of a background subtraction.
     """
+    from .io.masks import PersonMasks
     from .io.results import ResultWriter
     from .io.sequence import open_sequence
 
@@ -196,6 +201,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         say(problem, logging.WARNING)
     for note in seq.notes:  # what was assumed in reading a project
         say(f"note: {note}")
+    person_masks = None if masks is None else PersonMasks(masks, seq)
     gt = seq.ground_truth()
     selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
@@ -219,6 +225,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         "subject": seq.subject, "action": seq.action, "trial": seq.trial,
         "cameras": ",".join(seq.camera_names), "body_model": model_source,
         "frames_requested": ",".join(str(int(f)) for f in selected), "frame_rate": fps,
+        "person_masks": "" if masks is None else str(Path(masks).resolve()),
     }
     tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
     # Locks an existing result for the whole run (refused while another run writes it).
@@ -250,7 +257,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             say(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
                 f"({resumed_from} of {len(selected)} done)")
 
-        stage = MeasurementRunner(seq, config, log=log)
+        stage = MeasurementRunner(seq, config, log=log, person_masks=person_masks)
         say(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
             f"{','.join(seq.camera_names)}, grid {stage.grid.shape} at "
             f"{stage.grid.voxel_size:g} mm, {config.filter.layers} layers × "
@@ -504,7 +511,8 @@ def _select_frames(seq, gt, frames: str | None) -> np.ndarray:
 
 
 #: Attributes a resumed run must share with the file it continues.
-_RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested")
+_RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested",
+                "person_masks")
 
 
 def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
@@ -526,7 +534,8 @@ def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
     if not resume:
         return None
     for key in _RESUME_KEYS:
-        old, new = previous.attrs.get(key), meta[key]
+        # a result written before masks could be given was made without them
+        old, new = previous.attrs.get(key, "" if key == "person_masks" else None), meta[key]
         if key == "config":  # the [export] table is not tracking: a resumed run may change it
             old, new = _tracking_config(old), _tracking_config(new)
         if str(old) != str(new):

@@ -34,6 +34,11 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--trial", help="project: the trial to track (default: the only one)")
     parser.add_argument("--calibration", help="project: a calibration file (.toml, .qca.txt, "
                                               "intri.yml) instead of the project's own")
+    parser.add_argument("--masks", metavar="DIR",
+                        help="person masks from another tool as the silhouettes (no background "
+                             "subtraction): one mask video or numbered-image folder per camera, "
+                             "named like the camera or its video, frame for frame with it; grey "
+                             "> 127 is the person (see docs/projects.md)")
     parser.add_argument("--all", action="store_true",
                         help="track every sequence with videos of the data set; finished ones "
                              "are skipped, interrupted ones resumed")
@@ -102,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
     if args.all:
-        for name in ("subject", "sequence", "rerun"):
+        for name in ("subject", "sequence", "rerun", "masks"):
             if getattr(args, name):
                 raise InputError(f"--{name}", "not with --all (every sequence is tracked)")
         if args.resume:
@@ -133,7 +138,8 @@ def run(args: argparse.Namespace) -> int:
                                  config=config, frames=args.frames, cameras=cameras,
                                  seed=args.seed, resume=args.resume, overwrite=args.overwrite,
                                  progress=not args.no_progress, recorder=recorder,
-                                 trial=args.trial, calibration=args.calibration)
+                                 trial=args.trial, calibration=args.calibration,
+                                 masks=args.masks)
         recorded = recorder.close() if recorder is not None else None
     finally:
         if recorder is not None:
