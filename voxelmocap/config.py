@@ -320,7 +320,7 @@ class FilterConfig:
     #: 1.9 rad, the error up 100 mm at each sweep frame: 270 → 456 mm over the clip). With
     #: the silhouette cue scoring the sweep too and MediaPipe's masks as silhouettes, 2 gave
     #: 116–121 mm there and 1000 (no gate) 74–77 mm; with voxelmocap's own silhouettes the
-    #: ungated sweep is worse (docs/benchmarks.md)
+    #: ungated sweep is worse (docs/benchmarks.md); ``track --masks`` opens it (1000)
     limb_sweep_max_hull: float = 2.0
     #: Sobol points per limb of the periodic sweep (rounded up to a power of two; the start's
     #: sweep uses 1024): 256 → 42.8 mm and ≈ 25 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms

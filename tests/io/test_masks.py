@@ -160,3 +160,30 @@ def test_bad_masks_name_the_file(project, tmp_path, capsys, damage, message):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
     assert len(err) == 1 and message.split(",")[0] in err[0] and "Traceback" not in err[0]
+
+
+def test_masks_defaults_choose_the_silhouette_cue_and_open_the_gate():
+    from voxelmocap.commands.track import MASKS_CUES, MASKS_MAX_HULL, masks_defaults
+
+    config, message = masks_defaults(TrackConfig(), cues_given=False)
+    assert config.cues.weights == MASKS_CUES
+    assert config.filter.limb_sweep_max_hull == MASKS_MAX_HULL
+    assert "silhouette=10" in message and "limb_sweep_max_hull" in message
+    # --cues given, or a config that chose the gate: left as chosen
+    config, message = masks_defaults(TrackConfig(), cues_given=True)
+    assert config.cues.weights == TrackConfig().cues.weights and "cues voxel" not in message
+    chosen = with_overrides(TrackConfig(), **{"filter.limb_sweep_max_hull": 3.0})
+    config, message = masks_defaults(chosen, cues_given=True)
+    assert config == chosen and message is None
+
+
+def test_track_command_with_masks_records_them_and_the_cues(project, tmp_path):
+    root, _, _, masks = project
+    folder = _write(tmp_path / "masks", masks)
+    assert main(["track", str(root), "--out", str(tmp_path / "run"), "--masks", str(folder),
+                 "--frames", "1:2", "--layers", "2", "--particles", "60", "--no-progress"]) == 0
+    result = read_result(tmp_path / "run" / "Demo" / "Demo.h5")
+    assert result.attrs["person_masks"] == str(folder.resolve())
+    assert "silhouette = 10" in result.attrs["config"]
+    assert "note: given person masks: cues voxel=1,silhouette=10" in (
+        tmp_path / "run" / "voxelmocap.log").read_text()

@@ -76,6 +76,38 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(run=run, log_folder=lambda args: args.out)
 
 
+#: With ``--masks``: the cues and the limb sweep's hull gate used unless chosen otherwise. On
+#: the Pose2Sim demo with MediaPipe's masks, the voxel cue alone with the gate at 2 tracked to
+#: 222–239 mm, the silhouette cue at 10 to 116–121 mm, and with the gate open 74–77 mm; on the
+#: rendered 4-camera jog (near-perfect silhouettes, no answer) 81.2 → 63.7 mm (docs/benchmarks.md).
+MASKS_CUES = {"voxel": 1.0, "silhouette": 10.0}
+MASKS_MAX_HULL = 1000.0
+
+
+def masks_defaults(config, cues_given: bool):
+    """``config`` with :data:`MASKS_CUES` (unless ``--cues`` was given or the config chose
+    other cues) and :data:`MASKS_MAX_HULL` (unless the config set the gate), and the message
+    saying so (None when nothing changed)."""
+    import dataclasses
+
+    from ..config import TrackConfig, with_overrides
+
+    default = TrackConfig()
+    changed = []
+    if not cues_given and config.cues.weights == default.cues.weights:
+        config = dataclasses.replace(config, cues=dataclasses.replace(
+            config.cues, weights=dict(MASKS_CUES)))
+        changed.append("cues " + ",".join(f"{k}={v:g}" for k, v in MASKS_CUES.items()))
+    if config.filter.limb_sweep_max_hull == default.filter.limb_sweep_max_hull:
+        config = with_overrides(config, **{"filter.limb_sweep_max_hull": MASKS_MAX_HULL})
+        changed.append(f"[filter] limb_sweep_max_hull = {MASKS_MAX_HULL:g} (the limb sweep on "
+                       "every sweep frame)")
+    if not changed:
+        return config, None
+    return config, ("given person masks: " + " and ".join(changed) + " (docs/projects.md; "
+                    "--cues or the config file choose otherwise)")
+
+
 def resolve_config(args):
     """The config of a command: defaults ← ``--config`` file ← command-line options."""
     from ..config import TrackConfig, load_config, with_overrides
@@ -120,6 +152,10 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import track_sequence
 
     config = resolve_config(args)
+    if args.masks:
+        config, message = masks_defaults(config, bool(args.cues))
+        if message:
+            logger.info(f"note: {message}")
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     if cameras is not None:
         from ..cues import CueSet
