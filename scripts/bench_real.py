@@ -19,7 +19,8 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
   mean error, share within 100 mm (head top excluded: MediaPipe has no head top); ``--every N``
   also prints every N-th frame's error per landmark.
-* ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs.
+* ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs
+  (``--name``: the files' stem).
 * ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
   every tracked frame (how much of the error the silhouettes cause); ``--cues``, ``--seed`` and
   ``--config`` as for ``track``.
@@ -284,7 +285,7 @@ def overlays(args) -> None:
         i = rows[int(number)]
         img = overlay_all(images, list(seq.rig), model, result.state[i], result.landmarks[i],
                           caption=f"frame {int(number)}", max_width=args.width)
-        out = args.out / f"pose2sim_demo_overlay_{int(number):03d}.png"
+        out = args.out / f"{args.name}_{int(number):03d}.png"
         from PIL import Image
 
         # a 64-colour palette keeps each PNG near 100 kB (the docs hold five)
@@ -452,6 +453,8 @@ def main(argv=None) -> int:
         if name == "overlays":
             p.add_argument("--out", type=Path, default=Path("docs/images"))
             p.add_argument("--width", type=int, default=640)
+            p.add_argument("--name", default="pose2sim_demo_overlay",
+                           help="file names NAME_<frame>.png")
         if name == "diagnose":
             p.add_argument("--every", type=int, default=5, help="every EVERY-th tracked frame")
             p.add_argument("--mediapipe-masks", action="store_true",

@@ -266,11 +266,7 @@ class MeasurementRunner(MeasurementStage):
                                         height=COARSE_HEIGHT_MM, probe_height=COARSE_PROBE_MM,
                                         margin=COARSE_MARGIN_MM, bytes_per_voxel=4.0 * n_cam + 8)
             samples = self._sample_frames(seq, GRID_FRAMES)
-            numbers = np.asarray(seq.frame_numbers)
-            pick = numbers[np.unique(np.linspace(0, len(numbers) - 1,
-                                                 min(len(numbers), GRID_FRAMES))
-                                     .round().astype(int))]
-            given = [m for _, m in person_masks.read(pick)]
+            given = [m for _, m in person_masks.read(_spread(seq, GRID_FRAMES))]
             stage = MeasurementStage(rig, coarse, None, mc.silhouette, holes=holes,
                                      person_only=True, hole_reach=mc.carve_hole_reach)
             grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
@@ -291,11 +287,8 @@ class MeasurementRunner(MeasurementStage):
 
     def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:
         """``count`` frames spread evenly over the sequence, per camera (F, H, W, C) uint8."""
-        numbers = np.asarray(seq.frame_numbers)
-        pick = numbers[np.unique(np.linspace(0, len(numbers) - 1, min(len(numbers), count))
-                                 .round().astype(int))]
         out = {cam: [] for cam in seq.camera_names}
-        for _, images in seq.frames(pick):
+        for _, images in seq.frames(_spread(seq, count)):
             for cam in seq.camera_names:
                 out[cam].append(images[cam])
         return {cam: np.stack(v) for cam, v in out.items()}
@@ -374,6 +367,13 @@ class MeasurementRunner(MeasurementStage):
             if frames:
                 parts.append(f"camera {cam} left out of {len(frames)} frame(s): {_list(frames)}")
         return "; ".join(parts) or None
+
+
+def _spread(seq, count: int) -> np.ndarray:
+    """At most ``count`` frame numbers of ``seq`` spread evenly from its first to its last."""
+    numbers = np.asarray(seq.frame_numbers)
+    return numbers[np.unique(np.linspace(0, len(numbers) - 1, min(len(numbers), count))
+                             .round().astype(int))]
 
 
 def _list(frames: list[int], n: int = 10) -> str:

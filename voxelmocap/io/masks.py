@@ -86,7 +86,7 @@ class PersonMasks:
                                        f"{stream.frame_size()[1]}, camera {cam}'s video is {w}x{h}")
             self.paths[cam] = path
             self._streams[cam] = stream
-        self._readers: dict[str, Iterator] | None = None
+        self._readers: Iterator | None = None
         self._next: int | None = None
 
     def read(self, frames: Iterable[int]) -> Iterator[tuple[int, list[np.ndarray]]]:
