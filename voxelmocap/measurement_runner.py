@@ -338,12 +338,13 @@ class MeasurementRunner(MeasurementStage):
                 seen.append(int(frame))
         if not obs.empty and not obs.occupancy.any() and not self._said_no_voxel:
             self._said_no_voxel = True
-            how = ("the person masks given" if self.person_masks is not None
-                   else "the background plate learnt from the sequence" if self.learnt_plate
-                   else "the background model")
+            how = ("the person masks given (are they numbered by video frame?)"
+                   if self.person_masks is not None
+                   else "the background plate learnt from the sequence (e.g. with 'dump "
+                        "--masks')" if self.learnt_plate
+                   else "the background model (e.g. with 'dump --masks')")
             self._say(f"{where}: the silhouettes carve into no voxel: the cameras disagree "
-                      f"about the person; check {how} (e.g. with 'dump --masks') and the "
-                      "calibration")
+                      f"about the person; check {how} and the calibration")
         if obs.empty:
             if not self.empty_frames:
                 self._say(f"{where}: every silhouette is empty (no person in view), the "

@@ -187,3 +187,27 @@ def test_track_command_with_masks_records_them_and_the_cues(project, tmp_path):
     assert "silhouette = 10" in result.attrs["config"]
     assert "note: given person masks: cues voxel=1,silhouette=10" in (
         tmp_path / "run" / "voxelmocap.log").read_text()
+
+
+def test_masks_follow_each_camera_s_video_frames_on_the_humaneva_layout(walk_dataset, tmp_path):
+    # the HumanEva layout's cameras start at different video frames (.ofs): mask k goes with
+    # video frame k. Mask k here has its first k rows set, so each read names its video frame.
+    seq = Dataset(walk_dataset).sequence("S1", "Walking_1")
+    cams = list(seq.camera_names)
+    assert len({seq.starts[c] for c in cams}) > 1      # the case worth testing
+    for cam in cams:
+        w, h = seq.rig[cam].size
+        n = seq.starts[cam] + seq.n_frames - 1
+        images = [np.where(np.arange(h)[:, None] < k, 255, 0).astype(np.uint8)
+                  .repeat(w, axis=1) for k in range(1, n + 1)]
+        write_frames(tmp_path / "masks" / cam, images, 60.0, "png")
+    given = PersonMasks(tmp_path / "masks", seq)
+    for frame in (1, 3, 4, seq.n_frames, 2):           # gaps forward, then back
+        for cam, m in zip(cams, given.of(frame), strict=True):
+            assert m[:, 0].sum() == seq.starts[cam] + frame - 1
+    with pytest.raises(InputError, match="outside"):
+        given.of(seq.n_frames + 1)
+    # a numbered folder with a gap is refused when opened, not in the middle of a run
+    sorted((tmp_path / "masks" / cams[0]).iterdir())[3].unlink()
+    with pytest.raises(InputError, match="no mask image for video frame 4"):
+        PersonMasks(tmp_path / "masks", seq)

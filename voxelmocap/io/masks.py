@@ -6,7 +6,11 @@ mask video or one folder of numbered mask images per camera, named like the came
 video (:func:`~voxelmocap.io.video.find_videos`' rule: ``cam01.mp4``, ``cam01/000001.png``), frame
 for frame with that camera's video (mask frame ``k`` is video frame ``k``), at the video's size.
 A pixel whose grey level is above 127 is the person (black and white masks, or an 8-bit
-probability map thresholded at one half).
+probability map thresholded at one half; a colour image is read as grey, an alpha channel is not
+read). Masks are numbered by *video* frame: on the HumanEva layout, whose cameras start at
+different video frames (``.ofs``), mask ``k`` still goes with video frame ``k`` (``synth
+--masks``' ``Mask_Data`` is numbered by synchronised frame instead: it is the renderer's truth,
+not an input for ``--masks``).
 
 >>> masks = PersonMasks("masks", seq)           # doctest: +SKIP
 >>> masks.of(1)                                  # doctest: +SKIP
@@ -80,6 +84,11 @@ class PersonMasks:
             if stream.n_frames < need:
                 raise InputError(path, f"{stream.n_frames} mask frames, the camera's video needs "
                                        f"{need}")
+            gaps = stream.missing_frames(need)
+            if gaps:
+                raise InputError(path, f"no mask image for video frame {gaps[0]} ({len(gaps)} "
+                                       "missing): every frame needs one (an empty mask where "
+                                       "there is no person)")
             w, h = self.rig[cam].size
             if stream.frame_size() != (w, h):
                 raise InputError(path, f"masks are {stream.frame_size()[0]}x"
@@ -103,10 +112,16 @@ class PersonMasks:
 
     def of(self, frame: int) -> list[np.ndarray]:
         """The masks of one synchronised frame (rig order). Frames asked for in increasing
-        order are read sequentially (a video is decoded once, not sought frame by frame)."""
+        order, with gaps or not, are decoded forward from the open videos (as the sequence's
+        own frames are: seeking a compressed video may land a frame off); going back reopens
+        them."""
         frame = int(frame)
-        if self._readers is None or frame != self._next:
-            rest = range(frame, self.n_frames + 1)
-            self._readers = self.read(rest)
+        if not 1 <= frame <= self.n_frames:
+            raise InputError("masks", f"frame {frame} is outside 1..{self.n_frames}")
+        if self._readers is None or frame < self._next:
+            self._readers, self._next = self.read(range(frame, self.n_frames + 1)), frame
+        while self._next < frame:                # decode forward over the frames skipped
+            next(self._readers)
+            self._next += 1
         self._next = frame + 1
         return next(self._readers)[1]

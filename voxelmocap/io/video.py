@@ -177,6 +177,13 @@ class VideoStream:
         finally:
             cap.release()
 
+    def missing_frames(self, count: int) -> list[int]:
+        """1-based video frames among the first ``count`` without an image file (a numbered
+        folder with gaps; always empty for a video file)."""
+        if self._files is None:
+            return []
+        return [k + 1 for k in range(count) if self._first + k not in self._files]
+
     def first_frame(self) -> np.ndarray:
         """The first frame, decoded (checks that the video really decodes)."""
         return next(iter(self.read([0])))[1]
