@@ -78,8 +78,9 @@ def add_parser(subparsers) -> None:
 
 #: With ``--masks``: the cues and the limb sweep's hull gate used unless chosen otherwise. On
 #: the Pose2Sim demo with MediaPipe's masks, the voxel cue alone with the gate at 2 tracked to
-#: 222–239 mm, the silhouette cue at 10 to 116–121 mm, and with the gate open 74–77 mm; on the
-#: rendered 4-camera jog (near-perfect silhouettes, no answer) 81.2 → 63.7 mm (docs/benchmarks.md).
+#: 211 mm, the silhouette cue at 10 to 116 mm, and with the gate open 74–77 mm; on the five
+#: rendered 4-camera clips (near-perfect silhouettes, no answer) the two are mixed, 91.7 → 109.0 mm
+#: on average (better on jog and box, worse on gestures and combo; docs/benchmarks.md).
 MASKS_CUES = {"voxel": 1.0, "silhouette": 10.0}
 MASKS_MAX_HULL = 1000.0
 
