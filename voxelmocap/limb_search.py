@@ -110,9 +110,7 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
             scorer = PartialScorer(observation, model, x, parts, dims)
 
             def ll(states, scorer=scorer):
-                out = voxel_weight * scorer.log_likelihood(states, variances=variances,
-                                                           coverage=coverage)
-                return out if others is None else out + others(states)
+                return _scores(scorer, states, variances, coverage, others, voxel_weight)
 
             current = float(ll(x[None])[0])
             u = qmc.Sobol(len(dims), seed=seed + 7 * sweep + 97 * j).random_base2(m)
@@ -192,6 +190,13 @@ def swapped_limbs(model, state, pair: tuple[str, str]) -> np.ndarray:
     return out
 
 
+def _scores(scorer, states, variances, coverage, others, voxel_weight) -> np.ndarray:
+    """What the limb searches score: the voxel cue's partial log-likelihood at its fused weight,
+    plus the other cues on whole states (when given)."""
+    out = voxel_weight * scorer.log_likelihood(states, variances=variances, coverage=coverage)
+    return out if others is None else out + others(states)
+
+
 def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others,
                voxel_weight):
     """``x`` with each limb pair exchanged where that beats it by more than ``min_gain``."""
@@ -200,10 +205,7 @@ def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, othe
         parts = LIMBS[pair[0]][1] + LIMBS[pair[1]][1]
         scorer = PartialScorer(observation, model, x, parts, dims)
         cand = np.concatenate([x[None], swapped_limbs(model, x, pair)])
-        scores = voxel_weight * scorer.log_likelihood(cand, variances=variances,
-                                                      coverage=coverage)
-        if others is not None:
-            scores = scores + others(cand)
+        scores = _scores(scorer, cand, variances, coverage, others, voxel_weight)
         k = 1 + int(np.argmax(scores[1:]))
         if scores[k] > scores[0] + min_gain:
             for name in pair:                       # the gain shared by the two limbs

@@ -178,9 +178,7 @@ class MeasurementRunner(MeasurementStage):
             placement = "person" if self.learnt_plate else "rig"
         coarse = None
         if self.learnt_plate or (mc.grid_origin is None and placement == "person"):
-            coarse = VoxelGrid.from_rig(rig, mc.coarse_voxel_size, min_views=min(3, n_cam),
-                                        height=COARSE_HEIGHT_MM, probe_height=COARSE_PROBE_MM,
-                                        margin=COARSE_MARGIN_MM, bytes_per_voxel=4.0 * n_cam + 8)
+            coarse = _coarse_grid(rig, mc)
         samples = None
         if self.learnt_plate:
             samples = self._sample_frames(seq, silhouette.plate_frames)
@@ -227,10 +225,7 @@ class MeasurementRunner(MeasurementStage):
                                      person_only=True, hole_reach=mc.carve_hole_reach)
             grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
                                bytes_per_voxel=8.0)
-            self._say(f"grid placed around the person ({mc.grid_margin:g} mm margin): "
-                      f"{grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} voxels from "
-                      f"({', '.join(f'{v:.0f}' for v in grid.low)}) to "
-                      f"({', '.join(f'{v:.0f}' for v in grid.high)}) mm")
+            self._say(_placed(grid, mc.grid_margin))
         else:
             grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
         super().__init__(rig, grid, backgrounds, silhouette, min_views=mc.min_views,
@@ -262,19 +257,14 @@ class MeasurementRunner(MeasurementStage):
             grid = VoxelGrid(mc.grid_origin, mc.voxel_size, mc.grid_shape)
             grid.check_memory(8.0, what="the measurement volumes")
         elif placement == "person":
-            coarse = VoxelGrid.from_rig(rig, mc.coarse_voxel_size, min_views=min(3, n_cam),
-                                        height=COARSE_HEIGHT_MM, probe_height=COARSE_PROBE_MM,
-                                        margin=COARSE_MARGIN_MM, bytes_per_voxel=4.0 * n_cam + 8)
+            coarse = _coarse_grid(rig, mc)
             samples = self._sample_frames(seq, GRID_FRAMES)
             given = [m for _, m in person_masks.read(_spread(seq, GRID_FRAMES))]
             stage = MeasurementStage(rig, coarse, None, mc.silhouette, holes=holes,
                                      person_only=True, hole_reach=mc.carve_hole_reach)
             grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
                                bytes_per_voxel=8.0, masks=given)
-            self._say(f"grid placed around the person ({mc.grid_margin:g} mm margin): "
-                      f"{grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} voxels from "
-                      f"({', '.join(f'{v:.0f}' for v in grid.low)}) to "
-                      f"({', '.join(f'{v:.0f}' for v in grid.high)}) mm")
+            self._say(_placed(grid, mc.grid_margin))
         else:
             grid = VoxelGrid.from_rig(rig, mc.voxel_size, bytes_per_voxel=8.0)
         self._say("silhouettes: the person masks given in "
@@ -368,6 +358,24 @@ class MeasurementRunner(MeasurementStage):
             if frames:
                 parts.append(f"camera {cam} left out of {len(frames)} frame(s): {_list(frames)}")
         return "; ".join(parts) or None
+
+
+def _coarse_grid(rig, mc):
+    """The coarse box carved to learn a plate or place the grid (floor area three cameras see)."""
+    from .grid import VoxelGrid
+
+    n_cam = len(rig)
+    return VoxelGrid.from_rig(rig, mc.coarse_voxel_size, min_views=min(3, n_cam),
+                              height=COARSE_HEIGHT_MM, probe_height=COARSE_PROBE_MM,
+                              margin=COARSE_MARGIN_MM, bytes_per_voxel=4.0 * n_cam + 8)
+
+
+def _placed(grid, margin: float) -> str:
+    """The message saying where the grid was placed around the person."""
+    return (f"grid placed around the person ({margin:g} mm margin): "
+            f"{grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} voxels from "
+            f"({', '.join(f'{v:.0f}' for v in grid.low)}) to "
+            f"({', '.join(f'{v:.0f}' for v in grid.high)}) mm")
 
 
 def _spread(seq, count: int) -> np.ndarray:

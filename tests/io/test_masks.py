@@ -34,9 +34,14 @@ SAME_STAGE = with_overrides(TrackConfig(), **{
 def project(walk_dataset, tmp_path_factory):
     """A Pose2Sim project (lossless PNG frames, background videos) of the rendered walk, and the
     subtraction's masks of all its frames per camera."""
+    return _project_and_masks(walk_dataset, tmp_path_factory.mktemp("p") / "Demo", CAMERAS)
+
+
+def _project_and_masks(walk_dataset, root, cameras):
+    """A Pose2Sim project of the walk's ``cameras`` at ``root``, its sequence, the runner with
+    its background videos and the subtraction's masks of every frame per camera."""
     seq = Dataset(walk_dataset).sequence("S1", "Walking_1")
-    root, _ = make_project(seq, tmp_path_factory.mktemp("p") / "Demo", "pose2sim", CAMERAS,
-                           video="png")
+    root, _ = make_project(seq, root, "pose2sim", cameras, video="png")
     pseq = Project(root).sequence()
     runner = MeasurementRunner(pseq, SAME_STAGE)
     masks = {c: [] for c in pseq.camera_names}
@@ -92,14 +97,8 @@ def test_given_masks_carve_as_the_subtraction(project, tmp_path):
 
 def test_given_masks_place_the_grid_around_the_person(walk_dataset, tmp_path):
     # four cameras: with given masks the grid goes around the person (fewer: the rig's box)
-    seq = Dataset(walk_dataset).sequence("S1", "Walking_1")
-    root, _ = make_project(seq, tmp_path / "Four", "pose2sim", [*CAMERAS, "BW1"], video="png")
-    seq = Project(root).sequence()
-    runner = MeasurementRunner(seq, SAME_STAGE)
-    masks = {c: [] for c in seq.camera_names}
-    for _, images in seq.frames():
-        for c, m in zip(seq.camera_names, runner.masks(images), strict=True):
-            masks[c].append(m)
+    _, seq, runner, masks = _project_and_masks(walk_dataset, tmp_path / "Four",
+                                               [*CAMERAS, "BW1"])
     given = PersonMasks(_write(tmp_path / "masks", masks), seq)
     placed = MeasurementRunner(seq, TrackConfig(), person_masks=given, log=lambda *_: None)
     assert np.prod(placed.grid.shape) < 0.5 * np.prod(runner.grid.shape)
