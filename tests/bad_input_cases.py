@@ -234,6 +234,11 @@ def _project_camera_without_video(data, tmp):
     return _track_project(root, tmp)
 
 
+def _plate_from_not_hdf5(data, tmp):
+    (tmp / "x.h5").write_text("not a result\n")
+    return _track(data, tmp, "--plate-from", str(tmp / "x.h5"))
+
+
 def _masks(data, tmp, *, cameras=("C1", "C2", "BW1"), frames=None, size=None):
     """The project and a masks folder of black PNGs per camera (``frames`` each, default as many
     as the video has, at ``size``, default the video's)."""
@@ -383,6 +388,11 @@ CASES: list[Case] = [
          lambda data, tmp: ["track", str(data), "--all", "--masks", str(tmp),
                             "--out", str(tmp / "run"), "--no-progress"],
          ("--masks", "not with --all")),
+    Case("track --plate-from a folder without this sequence's result",
+         lambda data, tmp: _track(data, tmp, "--plate-from", str(tmp)),
+         ("{tmp}/S1/Walking_1.h5", "no result of S1/Walking_1 here")),
+    Case("track --plate-from a file that is not a result", _plate_from_not_hdf5,
+         ("{tmp}/x.h5", "cannot read HDF5")),
     Case("export of a result that does not exist", _export(result=False),
          ("{tmp}/run/S1/Walking_1.h5", "no such result file or run folder")),
     Case("export of a file that is not HDF5", _export_not_hdf5,

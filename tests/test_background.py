@@ -124,6 +124,37 @@ def test_learnt_plate_recovers_the_true_background_of_a_person_standing_half_the
         assert (~known & ~ever).mean() < 0.01
 
 
+def test_plates_from_the_true_covers_are_the_true_background_where_it_was_seen(still_walk):
+    import cv2
+
+    from voxelmocap.background import plates_from_covers
+
+    rig, frames, truth, masks, _ = still_walk
+    cfg = SilhouetteConfig()
+    # the covers at a quarter of the resolution, grown by two of their pixels (as a body's
+    # image is drawn): resized back by the plate
+    covers = {}
+    for cam in rig:
+        h, w = masks[cam.name].shape[1:]
+        covers[cam.name] = np.stack([cv2.dilate(cv2.resize(m.astype(np.uint8), (w // 4, h // 4),
+                                                           interpolation=cv2.INTER_AREA),
+                                                np.ones((5, 5), np.uint8)).astype(bool)
+                                     for m in masks[cam.name]])
+    plates = plates_from_covers(frames, rig, covers, cfg)
+    for cam in rig:
+        n = cam.name
+        known = plates[n].known
+        bad = (np.abs(plates[n].plate - truth[n]).max(axis=2) > 15) & known
+        assert bad.sum() < 0.001 * known.size
+        # never seen: exactly the pixels every (resized) cover holds
+        h, w = known.shape
+        every = np.all([cv2.resize(c.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST)
+                        for c in covers[n]], axis=0).astype(bool)
+        assert np.array_equal(~known, every)
+    with pytest.raises(InputError, match="covers for"):
+        plates_from_covers(frames, rig, {c: v[:-1] for c, v in covers.items()}, cfg)
+
+
 def test_a_person_who_never_moves_cannot_give_a_plate():
     from voxelmocap.camera import Camera
     from voxelmocap.grid import VoxelGrid

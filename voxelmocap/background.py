@@ -47,7 +47,7 @@ from .config import SilhouetteConfig
 from .errors import InputError
 
 __all__ = ["PlateBackground", "downscale_camera", "learn_plates", "masked_median",
-           "person_component", "plate_from_frames"]
+           "person_component", "plate_from_frames", "plates_from_covers"]
 
 _DEFAULT = SilhouetteConfig()
 #: Smallest visual-hull volume of a person (mm³): 30 litres, below a small adult's body volume
@@ -530,12 +530,51 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
         log(f"warning: the person carves into {typical * grid.voxel_size ** 3 / 1e6:.0f} litres "
             "only: the learnt plate may still hold the person (who moved too little in the "
             "sampled frames); empty background videos would be better")
+    return plates_from_covers(full, cameras, covered, config)
+
+
+def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
+                       covers: Mapping[str, np.ndarray], config: SilhouetteConfig | None = None
+                       ) -> dict[str, PlateBackground]:
+    """One plate per camera from frames of the sequence and where the person is in each.
+
+    Each pixel's background is estimated from the frames that do not cover it
+    (:func:`plate_from_frames`); a pixel covered in every frame is never seen (``known`` False).
+    :func:`learn_plates` finds the covers itself; a tracked body's image
+    (:func:`voxelmocap.cues.contours.body_mask`) is another source.
+
+    Parameters
+    ----------
+    frames : mapping of str to (F, H, W, C) or (F, H, W) uint8 ndarray
+        The same ``F`` frames of every camera.
+    cameras : sequence of Camera
+        The rig (names key ``frames`` and ``covers``).
+    covers : mapping of str to (F, h, w) bool ndarray
+        The person's pixels per frame, at any resolution (resized to the frames').
+    config : SilhouetteConfig, optional
+
+    Returns
+    -------
+    dict of str to PlateBackground
+
+    Raises
+    ------
+    InputError
+        A camera whose background was never seen over more than ``plate_max_unknown`` of its
+        image, or covers that do not match the frames.
+    """
+    config = config or _DEFAULT
     out = {}
     for cam in cameras:
-        frames_c = full[cam.name]
+        frames_c = np.asarray(frames[cam.name])
+        frames_c = frames_c[..., None] if frames_c.ndim == 3 else frames_c
+        cover = np.asarray(covers[cam.name], bool)
+        if len(cover) != len(frames_c):
+            raise InputError(f"background of {cam.name}",
+                             f"{len(cover)} covers for {len(frames_c)} frames")
         h, w = frames_c.shape[1:3]
         keep = ~np.stack([cv2.resize(c.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST)
-                          .astype(bool) for c in covered[cam.name]])
+                          .astype(bool) for c in cover])
         plate = plate_from_frames(frames_c, config, keep=keep)
         unknown = 1.0 - float(plate.known.mean())
         if unknown > config.plate_max_unknown:

@@ -138,6 +138,9 @@ class SilhouetteConfig:
     #: grow, GrabCut takes part of them for the person) and tracking within the seed spread
     #: (docs/benchmarks.md): off by default
     plate_support: bool = False
+    #: learnt plate from a previous run's body (``track --plate-from RUN``): the tracked body's
+    #: image, grown by this margin (mm at the body's depth), is the person's cover in each frame
+    plate_body_margin: float = 90.0
     #: GrabCut runs at this share of the image's resolution (its cost grows with the pixels)
     grabcut_scale: float = 0.33
     grabcut_iterations: int = 2  #: GrabCut's iterations per silhouette
@@ -724,6 +727,8 @@ def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
     for name in ("plate_vanish_share", "plate_max_unknown"):
         if not 0 <= getattr(obj, name) <= 1:
             bad(name, "between 0 and 1")
+    if obj.plate_body_margin < 0:
+        bad("plate_body_margin", ">= 0")
     if not 0 < obj.grabcut_scale <= 1:
         bad("grabcut_scale", "in (0, 1]")
     if obj.grabcut_iterations < 1:

@@ -122,6 +122,11 @@ class MeasurementRunner(MeasurementStage):
     log : callable or None
         Also receives every one-line message (they go to the ``voxelmocap.measurement_runner``
         logger in any case).
+    person_masks : voxelmocap.io.masks.PersonMasks, optional
+        Silhouettes given with the recording (no background model).
+    plate_body : TrackedBody, optional
+        A previous run's body: a plate learnt from the sequence takes its image in each sampled
+        frame for the person (:func:`plate_covers_of`) instead of finding the person by carving.
 
     Attributes
     ----------
@@ -136,8 +141,9 @@ class MeasurementRunner(MeasurementStage):
         Per camera, the frames it was left out of the carving.
     """
 
-    def __init__(self, seq, config: TrackConfig, log=None, *, person_masks=None):
-        from .background import learn_plates, plate_from_frames
+    def __init__(self, seq, config: TrackConfig, log=None, *, person_masks=None,
+                 plate_body: TrackedBody | None = None):
+        from .background import learn_plates, plate_from_frames, plates_from_covers
         from .grid import VoxelGrid
         from .silhouette import build_backgrounds
 
@@ -180,11 +186,24 @@ class MeasurementRunner(MeasurementStage):
         if self.learnt_plate or (mc.grid_origin is None and placement == "person"):
             coarse = _coarse_grid(rig, mc)
         samples = None
+        if plate_body is not None and not self.learnt_plate:
+            raise InputError("--plate-from", "no plate is learnt for this sequence (every camera "
+                                             "has a background video, or the method is mog2)")
         if self.learnt_plate:
-            samples = self._sample_frames(seq, silhouette.plate_frames)
-            plates = learn_plates(samples, rig, coarse, silhouette, holes=holes, log=self._say)
+            if plate_body is not None:
+                numbers = _spread_over(plate_body.frames, silhouette.plate_frames)
+                samples = self._read_frames(seq, numbers)
+                states = plate_body.states[np.searchsorted(plate_body.frames, numbers)]
+                plates = plates_from_covers(samples, rig, plate_covers_of(
+                    rig, plate_body.model, states, silhouette.plate_body_margin), silhouette)
+                how = f"the person where the body of {plate_body.source} was"
+            else:
+                samples = self._sample_frames(seq, silhouette.plate_frames)
+                plates = learn_plates(samples, rig, coarse, silhouette, holes=holes,
+                                      log=self._say)
+                how = "the person found by carving"
             self._say(f"no background video for {', '.join(missing)}: background plate learnt "
-                      f"from {len(next(iter(samples.values())))} frames of the sequence "
+                      f"from {len(next(iter(samples.values())))} frames of the sequence, {how} "
                       "(noise σ " + ", ".join(f"{c} {plates[c].camera_sigma:.1f}"
                                                for c in missing) + " grey levels)")
             backgrounds = {c: plates[c] for c in missing}
@@ -277,8 +296,13 @@ class MeasurementRunner(MeasurementStage):
 
     def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:
         """``count`` frames spread evenly over the sequence, per camera (F, H, W, C) uint8."""
+        return self._read_frames(seq, _spread(seq, count))
+
+    @staticmethod
+    def _read_frames(seq, numbers) -> dict[str, np.ndarray]:
+        """The frames ``numbers`` of every camera, (F, H, W, C) uint8."""
         out = {cam: [] for cam in seq.camera_names}
-        for _, images in seq.frames(_spread(seq, count)):
+        for _, images in seq.frames(numbers):
             for cam in seq.camera_names:
                 out[cam].append(images[cam])
         return {cam: np.stack(v) for cam, v in out.items()}
@@ -380,9 +404,81 @@ def _placed(grid, margin: float) -> str:
 
 def _spread(seq, count: int) -> np.ndarray:
     """At most ``count`` frame numbers of ``seq`` spread evenly from its first to its last."""
-    numbers = np.asarray(seq.frame_numbers)
+    return _spread_over(seq.frame_numbers, count)
+
+
+def _spread_over(numbers, count: int) -> np.ndarray:
+    """At most ``count`` of ``numbers`` spread evenly from the first to the last."""
+    numbers = np.asarray(numbers)
     return numbers[np.unique(np.linspace(0, len(numbers) - 1, min(len(numbers), count))
                              .round().astype(int))]
+
+
+@dataclass(frozen=True)
+class TrackedBody:
+    """A previous run's body over the frames it tracked: a plate's cover (``--plate-from``).
+
+    Attributes
+    ----------
+    model : BodyModel
+        The body the run tracked with.
+    frames : (F,) int ndarray
+        Frame numbers, increasing (the frames where the run saw the person).
+    states : (F, 27) float ndarray
+        The tracked state of each.
+    source : str
+        Where it was read (for messages).
+    """
+
+    model: object
+    frames: np.ndarray
+    states: np.ndarray
+    source: str
+
+
+def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
+                    ) -> dict[str, np.ndarray]:
+    """Each camera's image of the body in each state, grown by ``margin``: a plate's cover.
+
+    Drawn at most ``max_side`` pixels on a side (the resolution :func:`learn_plates` finds its
+    covers at; :func:`~voxelmocap.background.plates_from_covers` resizes them).
+
+    Parameters
+    ----------
+    rig : sequence of Camera
+    model : BodyModel
+    states : (F, 27) array_like
+    margin : float
+        Millimetres at the body's depth (the tracked cones are not the person's exact outline).
+    max_side : int
+
+    Returns
+    -------
+    dict of str to (F, h, w) bool ndarray
+    """
+    import cv2
+
+    from .background import downscale_camera
+    from .cues.contours import body_mask
+
+    states = np.asarray(states, float)
+    geo = model.geometry(states, legal=False)
+    centres = geo.base.mean(axis=1)                                  # (F, 3)
+    out = {}
+    for cam in rig:
+        w, h = cam.size
+        s = min(1.0, max_side / max(w, h))
+        small = downscale_camera(cam, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
+        depth = np.maximum(small.world_to_camera(centres)[:, 2], 1.0)
+        masks = []
+        for f in range(len(states)):
+            m = body_mask(geo, small, index=f).astype(np.uint8)
+            r = int(np.ceil(max(small.fc) * margin / depth[f]))
+            if r > 0:
+                m = cv2.dilate(m, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1,) * 2))
+            masks.append(m.astype(bool))
+        out[cam.name] = np.stack(masks)
+    return out
 
 
 def _list(frames: list[int], n: int = 10) -> str:

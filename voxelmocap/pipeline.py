@@ -138,7 +138,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                    cameras=None, seed: int = 0, resume: bool = False, overwrite: bool = False,
                    progress: bool = True, log=None, fps: float | None = None,
                    recorder=None, trial: str | None = None, calibration=None,
-                   masks=None) -> TrackOutcome:
+                   masks=None, plate_from=None) -> TrackOutcome:
     """Track one sequence and write its results (see the module docstring).
 
     Parameters
@@ -185,6 +185,10 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     masks : str or os.PathLike, optional
         A folder of person masks per camera (:class:`voxelmocap.io.masks.PersonMasks`): the
         silhouettes, instead of a background subtraction.
+    plate_from : str or os.PathLike, optional
+        A previous run (its folder or result file) of this sequence: a plate learnt from the
+        sequence takes the body it tracked for the person (:func:`tracked_body`), which finds
+        the background behind the person better than carving against a first plate does.
     """
     from .io.masks import PersonMasks
     from .io.results import ResultWriter
@@ -201,7 +205,10 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         say(problem, logging.WARNING)
     for note in seq.notes:  # what was assumed in reading a project
         say(f"note: {note}")
+    if masks is not None and plate_from is not None:
+        raise InputError("--plate-from", "not with --masks (given masks need no plate)")
     person_masks = None if masks is None else PersonMasks(masks, seq)
+    plate_body = None if plate_from is None else tracked_body(plate_from, seq)
     gt = seq.ground_truth()
     selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
@@ -226,6 +233,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         "cameras": ",".join(seq.camera_names), "body_model": model_source,
         "frames_requested": ",".join(str(int(f)) for f in selected), "frame_rate": fps,
         "person_masks": "" if masks is None else str(Path(masks).resolve()),
+        "plate_from": "" if plate_body is None else plate_body.source,
     }
     tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
     # Locks an existing result for the whole run (refused while another run writes it).
@@ -257,7 +265,8 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             say(f"resuming {seq.subject}/{seq.name} after frame {int(previous.frames[-1])} "
                 f"({resumed_from} of {len(selected)} done)")
 
-        stage = MeasurementRunner(seq, config, log=log, person_masks=person_masks)
+        stage = MeasurementRunner(seq, config, log=log, person_masks=person_masks,
+                                  plate_body=plate_body)
         say(f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
             f"{','.join(seq.camera_names)}, grid {stage.grid.shape} at "
             f"{stage.grid.voxel_size:g} mm, {config.filter.layers} layers × "
@@ -512,7 +521,50 @@ def _select_frames(seq, gt, frames: str | None) -> np.ndarray:
 
 #: Attributes a resumed run must share with the file it continues.
 _RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested",
-                "person_masks")
+                "person_masks", "plate_from")
+
+
+def tracked_body(run, seq):
+    """The body a previous run tracked in ``seq``: its model and states where it saw the person.
+
+    Parameters
+    ----------
+    run : str or os.PathLike
+        The run folder (its result of ``seq`` is ``RUN/<subject>/<name>.h5``) or the result file.
+    seq : Sequence
+        The sequence about to be tracked.
+
+    Returns
+    -------
+    voxelmocap.measurement_runner.TrackedBody
+
+    Raises
+    ------
+    InputError
+        No such result, a result of another sequence, or fewer than 2 frames with the person.
+    """
+    from .inspection import result_body_model
+    from .io.results import read_result
+    from .measurement_runner import TrackedBody
+
+    run = Path(run)
+    path = run if run.suffix == ".h5" else _result_paths(run, seq)[0]
+    if not path.is_file():
+        raise InputError(path, f"no result of {seq.subject}/{seq.name} here (--plate-from takes a "
+                               "run folder of this sequence or its .h5 result)")
+    result = read_result(path)
+    for key, mine in (("subject", seq.subject), ("action", seq.action), ("trial", seq.trial)):
+        theirs = result.attrs.get(key)
+        if theirs is not None and str(theirs) != str(mine):
+            raise InputError(path, f"a result of {key} {theirs!r}, not of this run's {mine!r}")
+    keep = np.asarray(result.observed, bool) & np.isin(result.frames, seq.frame_numbers)
+    if keep.sum() < 2:
+        raise InputError(path, f"{int(keep.sum())} frame(s) of this sequence with the person "
+                               "tracked: a plate needs at least 2")
+    frames = np.asarray(result.frames)[keep]
+    order = np.argsort(frames)
+    return TrackedBody(result_body_model(seq, result), frames[order],
+                       np.asarray(result.state, float)[keep][order], str(path.resolve()))
 
 
 def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
@@ -535,7 +587,8 @@ def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):
         return None
     for key in _RESUME_KEYS:
         # a result written before masks could be given was made without them
-        old, new = previous.attrs.get(key, "" if key == "person_masks" else None), meta[key]
+        old = previous.attrs.get(key, "" if key in ("person_masks", "plate_from") else None)
+        new = meta[key]
         if key == "config":  # the [export] table is not tracking: a resumed run may change it
             old, new = _tracking_config(old), _tracking_config(new)
         if str(old) != str(new):

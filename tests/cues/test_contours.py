@@ -157,3 +157,38 @@ def test_body_model_contours_shapes_and_depth():
     seg, valid, depth = project_contours(model.geometry(x), cam)
     assert seg.shape == (3, 10, 2, 2, 2) and valid.all()
     assert np.allclose(depth, 4000.0, atol=200.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_body_mask_is_the_image_of_points_sampled_inside_the_cones(seed):
+    """Every point inside a cone projects into the mask, and every mask pixel lies within a
+    pixel of such a point (dense sampling of the solid cones: a brute-force image)."""
+    from voxelmocap.cues.contours import body_mask
+
+    rng = np.random.default_rng(seed)
+    model = BodyModel()
+    state = model.default_state()
+    state[6:] += rng.uniform(-0.4, 0.4, size=len(state) - 6)      # joints moved
+    geo = model.geometry(state[None], legal=False)
+    cam = _look_at(np.array([500.0, -4000.0, 1200.0]), np.array([0.0, 0.0, 1000.0]),
+                   kc=(-0.1, 0.02, 0, 0, 0))
+    mask = body_mask(geo, cam, size=(640, 480))
+    n = 40000
+    pts = []
+    for p, part in enumerate(model.parts):
+        t = rng.uniform(0, 1, n)
+        rho = np.sqrt(rng.uniform(0, 1, n)) * (1 + (part.R - 1) * t)
+        a = rng.uniform(0, 2 * np.pi, n)
+        pts.append(geo.base[0, p] + (t * part.L)[:, None] * geo.axis[0, p]
+                   + (rho * part.H * np.cos(a))[:, None] * geo.u1[0, p]
+                   + (rho * part.W * np.sin(a))[:, None] * geo.u2[0, p])
+    pix = np.round(cam.project(np.concatenate(pts))).astype(int)
+    inside = (pix[:, 0] >= 0) & (pix[:, 0] < 640) & (pix[:, 1] >= 0) & (pix[:, 1] < 480)
+    pix = pix[inside]
+    image = np.zeros((480, 640), bool)
+    image[pix[:, 1], pix[:, 0]] = True
+    grown = ndimage.binary_dilation(mask, iterations=1)
+    assert grown[pix[:, 1], pix[:, 0]].mean() > 0.999
+    near = ndimage.binary_dilation(image, iterations=2)
+    assert mask[~near].sum() < 0.01 * mask.sum()
+    assert 0.9 < image.sum() / mask.sum() < 1.1

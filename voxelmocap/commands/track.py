@@ -39,6 +39,11 @@ def add_parser(subparsers) -> None:
                              "subtraction): one mask video or numbered-image folder per camera, "
                              "named like the camera or its video, frame for frame with it; grey "
                              "> 127 is the person (see docs/projects.md)")
+    parser.add_argument("--plate-from", metavar="RUN",
+                        help="without background videos: learn the plate with the body a "
+                             "previous run (its folder or .h5) tracked in this sequence as the "
+                             "person, instead of carving against a first plate; the run then "
+                             "uses the silhouette cue too (see docs/projects.md)")
     parser.add_argument("--all", action="store_true",
                         help="track every sequence with videos of the data set; finished ones "
                              "are skipped, interrupted ones resumed")
@@ -81,14 +86,16 @@ def add_parser(subparsers) -> None:
 #: 211 mm, the silhouette cue at 10 to 116 mm, and with the gate open 74–77 mm; on the five
 #: rendered 4-camera clips (near-perfect silhouettes, no answer) the two are mixed, 91.7 → 109.0 mm
 #: on average (better on jog and box, worse on gestures and combo; docs/benchmarks.md).
+#: With ``--plate-from`` the cues only (the gate stays: on the demo 218 mm at 2, 223 mm open).
 MASKS_CUES = {"voxel": 1.0, "silhouette": 10.0}
 MASKS_MAX_HULL = 1000.0
 
 
-def masks_defaults(config, cues_given: bool):
+def masks_defaults(config, cues_given: bool, *, why: str = "given person masks",
+                   gate: bool = True):
     """``config`` with :data:`MASKS_CUES` (unless ``--cues`` was given or the config chose
-    other cues) and :data:`MASKS_MAX_HULL` (unless the config set the gate), and the message
-    saying so (None when nothing changed)."""
+    other cues) and, with ``gate``, :data:`MASKS_MAX_HULL` (unless the config set the gate),
+    and the message saying so, starting with ``why`` (None when nothing changed)."""
     import dataclasses
 
     from ..config import TrackConfig, with_overrides
@@ -99,13 +106,13 @@ def masks_defaults(config, cues_given: bool):
         config = dataclasses.replace(config, cues=dataclasses.replace(
             config.cues, weights=dict(MASKS_CUES)))
         changed.append("cues " + ",".join(f"{k}={v:g}" for k, v in MASKS_CUES.items()))
-    if config.filter.limb_sweep_max_hull == default.filter.limb_sweep_max_hull:
+    if gate and config.filter.limb_sweep_max_hull == default.filter.limb_sweep_max_hull:
         config = with_overrides(config, **{"filter.limb_sweep_max_hull": MASKS_MAX_HULL})
         changed.append(f"[filter] limb_sweep_max_hull = {MASKS_MAX_HULL:g} (the limb sweep on "
                        "every sweep frame)")
     if not changed:
         return config, None
-    return config, ("given person masks: " + " and ".join(changed) + " (docs/projects.md; "
+    return config, (f"{why}: " + " and ".join(changed) + " (docs/projects.md; "
                     "--cues or the config file choose otherwise)")
 
 
@@ -140,9 +147,10 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
     if args.all:
-        for name in ("subject", "sequence", "rerun", "masks"):
+        for name in ("subject", "sequence", "rerun", "masks", "plate_from"):
             if getattr(args, name):
-                raise InputError(f"--{name}", "not with --all (every sequence is tracked)")
+                raise InputError(f"--{name.replace('_', '-')}",
+                                 "not with --all (every sequence is tracked)")
         if args.resume:
             raise InputError("--resume", "not needed with --all: interrupted sequences are "
                                          "resumed, finished ones skipped")
@@ -153,8 +161,10 @@ def run(args: argparse.Namespace) -> int:
     from ..pipeline import track_sequence
 
     config = resolve_config(args)
-    if args.masks:
-        config, message = masks_defaults(config, bool(args.cues))
+    if args.masks or args.plate_from:
+        config, message = (masks_defaults(config, bool(args.cues)) if args.masks else
+                           masks_defaults(config, bool(args.cues), gate=False,
+                                          why="a plate from a tracked body"))
         if message:
             logger.info(f"note: {message}")
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
@@ -176,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
                                  seed=args.seed, resume=args.resume, overwrite=args.overwrite,
                                  progress=not args.no_progress, recorder=recorder,
                                  trial=args.trial, calibration=args.calibration,
-                                 masks=args.masks)
+                                 masks=args.masks, plate_from=args.plate_from)
         recorded = recorder.close() if recorder is not None else None
     finally:
         if recorder is not None:

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["contour_angles", "contour_points", "outline_pixels", "project_contours",
+__all__ = ["body_mask", "contour_angles", "contour_points", "outline_pixels", "project_contours",
            "project_outlines"]
 
 
@@ -210,3 +210,38 @@ def outline_pixels(geo, camera, scale, *, n: int = OUTLINE_POINTS
                        np.asarray(camera.kc, dtype=float), np.asarray(scale, dtype=float),
                        points, valid)
     return points, valid
+
+
+def body_mask(geo, camera, *, size=None, index: int = 0) -> np.ndarray:
+    """The pixels of one camera that see the body of one state (every part's image filled).
+
+    Each part's image is the convex polygon of :func:`project_outlines`; a part not wholly in
+    front of the camera is left out.
+
+    Parameters
+    ----------
+    geo : voxelmocap.body.PartGeometry
+        The states' geometry.
+    camera : voxelmocap.camera.Camera
+    size : (int, int), optional
+        Mask ``(W, H)``; default the camera's image size.
+    index : int
+        Which state of ``geo``.
+
+    Returns
+    -------
+    (H, W) bool ndarray
+    """
+    import cv2
+
+    w, h = camera.size if size is None else size
+    out = np.zeros((int(h), int(w)), np.uint8)
+    points, valid = project_outlines(geo, camera)
+    for p in np.flatnonzero(valid[index]):
+        pts = points[index, p]
+        if np.abs(pts).max() > 1e6:  # a part behind the lens's useful field: nothing to fill
+            continue
+        # 4 fractional bits: the polygon's vertices are not rounded to whole pixels
+        hull = cv2.convexHull(np.round(pts * 16).astype(np.int32))
+        cv2.fillConvexPoly(out, hull, 1, lineType=cv2.LINE_8, shift=4)
+    return out.astype(bool)

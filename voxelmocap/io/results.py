@@ -17,7 +17,8 @@
   Z = 0), ``frame_rate`` (Hz), ``landmark_names``, ``endpoint_names``, ``state_names``,
   ``part_names``, ``score_names``, and what the writer was given (``config`` TOML, ``seed``,
   ``dataset`` = the data source, ``subject``, ``action``, ``trial``, ``cameras``, ``body_model``,
-  ``init_method``, ``frames_requested``, ``person_masks`` = the ``--masks`` folder or empty);
+  ``init_method``, ``frames_requested``, ``person_masks`` = the ``--masks`` folder or empty,
+  ``plate_from`` = the ``--plate-from`` result file or empty);
   strings are UTF-8 (variable length);
 * ``commit`` (3,) int64: the number of committed frames, the checkpoint slot holding their filter
   state (−1 for none) and 1 once the run is complete. **Rows beyond the committed count are not

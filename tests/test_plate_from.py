@@ -1,0 +1,122 @@
+"""``track --plate-from RUN``: a learnt plate whose cover is a previous run's tracked body."""
+
+import shutil
+
+import numpy as np
+import pytest
+
+from voxelmocap.cli import main
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.io.humaneva import Dataset
+from voxelmocap.io.results import read_result
+
+SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 60})
+
+
+@pytest.fixture(scope="module")
+def no_plate(walk_dataset, tmp_path_factory):
+    """The rendered walk without ``Background/``, and a first run of it (the plate learnt by
+    carving, the start from the ground truth)."""
+    root = tmp_path_factory.mktemp("noplate")
+    data = root / "data"
+    shutil.copytree(walk_dataset, data, ignore=shutil.ignore_patterns("Background"))
+    run = root / "first"
+    assert main(["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers",
+                 "2", "--particles", "60", "--no-progress", "--out", str(run)]) == 0
+    return data, run
+
+
+def test_the_plate_from_the_true_body_is_the_empty_scene(walk_dataset, no_plate):
+    """The body fitted to the ground truth as the cover: the plate is the renderer's empty scene
+    (its background videos, removed from the tracked copy) wherever the walk uncovered it."""
+    from voxelmocap.body.fit import fit_to_landmarks
+    from voxelmocap.measurement_runner import MeasurementRunner, TrackedBody
+    from voxelmocap.pipeline import body_model_for
+    from voxelmocap.tracker import ground_truth_landmarks
+
+    data, _ = no_plate
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    gt = seq.ground_truth()
+    model, _ = body_model_for(seq, gt)
+    frames = np.asarray(seq.frame_numbers)
+    states = np.stack([fit_to_landmarks(model, ground_truth_landmarks(gt, int(f)))
+                       for f in frames])
+    said = []
+    runner = MeasurementRunner(seq, SMALL, log=said.append,
+                               plate_body=TrackedBody(model, frames, states, "the truth"))
+    assert any("the person where the body of the truth was" in s for s in said)
+    carved = MeasurementRunner(seq, SMALL)          # the plate learnt by carving, for scale
+    empty = Dataset(walk_dataset).sequence("S1", "Walking_1")
+    for cam in seq.camera_names:
+        truth = np.median(np.stack(empty.background_sets(cam)[0]), axis=0)
+        truth = truth[..., None] if truth.ndim == 2 else truth         # BW1 is grey
+
+        def wrong(plate, truth=truth):
+            return ((np.abs(plate.plate - truth).max(axis=2) > 20) & plate.known).mean()
+
+        plate = runner.backgrounds[cam]
+        assert plate.known.mean() > 0.9, (cam, plate.known.mean())  # 8 walk frames uncover most
+        # 0.2–0.35 % wrong (the cast shadow is not covered) against 0.8–1.5 % by carving
+        assert wrong(plate) < 0.005 and wrong(plate) < 0.5 * wrong(carved.backgrounds[cam]), cam
+
+
+def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
+    from voxelmocap.pipeline import tracked_body
+
+    data, run = no_plate
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    body = tracked_body(run, seq)
+    path = run / "S1" / "Walking_1.h5"
+    assert body.source == str(path.resolve())
+    result = read_result(path)
+    assert np.array_equal(body.frames, result.frames)
+    assert np.allclose(body.states, result.state)
+    assert tracked_body(path, seq).source == body.source      # the file itself
+
+
+def test_track_with_plate_from_records_it_and_resume_checks_it(no_plate, tmp_path, capsys):
+    data, run = no_plate
+    out = tmp_path / "second"
+    args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
+            "--particles", "60", "--frames", "1:3", "--no-progress", "--out", str(out)]
+    assert main(args + ["--plate-from", str(run)]) == 0
+    result = read_result(out / "S1" / "Walking_1.h5")
+    assert result.attrs["plate_from"] == str((run / "S1" / "Walking_1.h5").resolve())
+    assert len(result) == 3
+    # the silhouette cue joins the voxel cue, the gate stays, and the log says so
+    assert "silhouette = 10.0" in result.attrs["config"]
+    assert "limb_sweep_max_hull = 2.0" in result.attrs["config"]
+    assert "note: a plate from a tracked body: cues voxel=1,silhouette=10" in capsys.readouterr().out
+    capsys.readouterr()
+    # the same result tracked again (same cues) with the plate learnt by carving is another run
+    assert main(args + ["--cues", "voxel,silhouette=10", "--resume"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot resume: its plate_from differs" in err[0], err
+
+
+@pytest.mark.parametrize(("case", "message"), [
+    ("missing", "no result of S1/Walking_1 here"),
+    ("with_backgrounds", "--plate-from: no plate is learnt for this sequence"),
+    ("all", "--plate-from: not with --all"),
+    ("masks", "--plate-from: not with --masks"),
+])
+def test_plate_from_bad_input_is_one_line(walk_dataset, no_plate, tmp_path, capsys, case,
+                                          message):
+    data, run = no_plate
+    source = walk_dataset if case == "with_backgrounds" else data
+    args = ["track", str(source), "--frames", "1:1", "--no-progress", "--out",
+            str(tmp_path / "run"), "--plate-from", str(tmp_path if case == "missing" else run)]
+    if case == "all":
+        args += ["--all"]
+    else:
+        args += ["--subject", "S1", "--sequence", "Walking_1"]
+    if case == "masks":
+        masks = tmp_path / "masks"
+        masks.mkdir()
+        args += ["--masks", str(masks)]
+    capsys.readouterr()
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert "Traceback" not in "\n".join(err)
+    assert not (tmp_path / "run" / "S1" / "Walking_1.h5").exists()
