@@ -87,11 +87,49 @@ def test_track_with_plate_from_records_it_and_resume_checks_it(no_plate, tmp_pat
     assert "silhouette = 10.0" in result.attrs["config"]
     assert "limb_sweep_max_hull = 2.0" in result.attrs["config"]
     assert "note: a plate from a tracked body: cues voxel=1,silhouette=10" in capsys.readouterr().out
-    capsys.readouterr()
     # the same result tracked again (same cues) with the plate learnt by carving is another run
     assert main(args + ["--cues", "voxel,silhouette=10", "--resume"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot resume: its plate_from differs" in err[0], err
+
+
+def test_tracked_body_refuses_another_sequence_and_too_few_frames(no_plate, tmp_path):
+    import h5py
+
+    from voxelmocap.errors import InputError
+    from voxelmocap.pipeline import tracked_body
+
+    data, run = no_plate
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    other = tmp_path / "other.h5"
+    shutil.copy(run / "S1" / "Walking_1.h5", other)
+    with h5py.File(other, "r+") as f:
+        f.attrs["action"] = "Jog"
+    with pytest.raises(InputError, match="a result of action 'Jog'"):
+        tracked_body(other, seq)
+    few = tmp_path / "few.h5"
+    shutil.copy(run / "S1" / "Walking_1.h5", few)
+    with h5py.File(few, "r+") as f:
+        f["observed"][1:] = 0
+    with pytest.raises(InputError, match="1 frame.* with the person tracked"):
+        tracked_body(few, seq)
+
+
+def test_tracked_body_measured_on_the_ground_truth_is_that_body(no_plate, tmp_path):
+    """Without a body file the first run measured its body on the ground truth (and recorded no
+    dimensions): the cover is drawn with that body, not the average adult."""
+    from voxelmocap.pipeline import body_model_for, tracked_body
+
+    data, run = no_plate
+    bare = tmp_path / "bare"
+    shutil.copytree(data, bare, ignore=shutil.ignore_patterns("*_body.toml"))
+    seq = Dataset(bare).sequence("S1", "Walking_1")
+    gt = seq.ground_truth()
+    model, source = body_model_for(seq, gt)
+    assert "ground truth" in source
+    body = tracked_body(run, seq, gt)
+    assert body.model.dimensions == model.dimensions
+    assert body.model.dimensions != body_model_for(seq, None)[0].dimensions
 
 
 @pytest.mark.parametrize(("case", "message"), [

@@ -194,8 +194,9 @@ class MeasurementRunner(MeasurementStage):
                 numbers = _spread_over(plate_body.frames, silhouette.plate_frames)
                 samples = self._read_frames(seq, numbers)
                 states = plate_body.states[np.searchsorted(plate_body.frames, numbers)]
-                plates = plates_from_covers(samples, rig, plate_covers_of(
-                    rig, plate_body.model, states, silhouette.plate_body_margin), silhouette)
+                plain = [cam for cam in rig if cam.name in missing]  # the others have videos
+                plates = plates_from_covers(samples, plain, plate_covers_of(
+                    plain, plate_body.model, states, silhouette.plate_body_margin), silhouette)
                 how = f"the person where the body of {plate_body.source} was"
             else:
                 samples = self._sample_frames(seq, silhouette.plate_frames)
@@ -462,21 +463,23 @@ def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
     from .cues.contours import body_mask
 
     states = np.asarray(states, float)
-    geo = model.geometry(states, legal=False)
-    centres = geo.base.mean(axis=1)                                  # (F, 3)
+    geos = [model.geometry(states[f:f + 1], legal=False) for f in range(len(states))]
     out = {}
     for cam in rig:
         w, h = cam.size
         s = min(1.0, max_side / max(w, h))
         small = downscale_camera(cam, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
-        depth = np.maximum(small.world_to_camera(centres)[:, 2], 1.0)
         masks = []
-        for f in range(len(states)):
-            m = body_mask(geo, small, index=f).astype(np.uint8)
-            r = int(np.ceil(max(small.fc) * margin / depth[f]))
-            if r > 0:
-                m = cv2.dilate(m, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1,) * 2))
-            masks.append(m.astype(bool))
+        for geo in geos:
+            m = body_mask(geo, small)
+            depth = small.world_to_camera(geo.base[0].mean(axis=0)[None])[0, 2]
+            if m.any() and margin > 0 and depth > 0:
+                # grown by the margin's image at the body's depth (a distance transform: its
+                # cost does not grow with the radius, which is large for a body near the lens)
+                r = max(small.fc) * margin / depth
+                far = cv2.distanceTransform((~m).astype(np.uint8), cv2.DIST_L2, 5)
+                m = far <= r
+            masks.append(m)
         out[cam.name] = np.stack(masks)
     return out
 

@@ -208,8 +208,8 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     if masks is not None and plate_from is not None:
         raise InputError("--plate-from", "not with --masks (given masks need no plate)")
     person_masks = None if masks is None else PersonMasks(masks, seq)
-    plate_body = None if plate_from is None else tracked_body(plate_from, seq)
     gt = seq.ground_truth()
+    plate_body = None if plate_from is None else tracked_body(plate_from, seq, gt)
     selected = _select_frames(seq, gt, frames)
     result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
     model, model_source = body_model_for(seq, gt)
@@ -524,7 +524,7 @@ _RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "fram
                 "person_masks", "plate_from")
 
 
-def tracked_body(run, seq):
+def tracked_body(run, seq, gt=None):
     """The body a previous run tracked in ``seq``: its model and states where it saw the person.
 
     Parameters
@@ -533,6 +533,8 @@ def tracked_body(run, seq):
         The run folder (its result of ``seq`` is ``RUN/<subject>/<name>.h5``) or the result file.
     seq : Sequence
         The sequence about to be tracked.
+    gt : GroundTruth, optional
+        Its ground truth: a run that measured its body on it recorded no dimensions.
 
     Returns
     -------
@@ -548,7 +550,7 @@ def tracked_body(run, seq):
     from .measurement_runner import TrackedBody
 
     run = Path(run)
-    path = run if run.suffix == ".h5" else _result_paths(run, seq)[0]
+    path = run if run.is_file() else _result_paths(run, seq)[0]
     if not path.is_file():
         raise InputError(path, f"no result of {seq.subject}/{seq.name} here (--plate-from takes a "
                                "run folder of this sequence or its .h5 result)")
@@ -561,10 +563,17 @@ def tracked_body(run, seq):
     if keep.sum() < 2:
         raise InputError(path, f"{int(keep.sum())} frame(s) of this sequence with the person "
                                "tracked: a plate needs at least 2")
+    try:
+        model = result_body_model(seq, result, gt)
+    except InputError as exc:
+        raise InputError(path, exc.problem) from None
+    states = np.asarray(result.state, float)
+    if states.ndim != 2 or states.shape[1] != model.n_dims:
+        raise InputError(path, f"states of {states.shape[-1]} parameters, the body model has "
+                               f"{model.n_dims}")
     frames = np.asarray(result.frames)[keep]
     order = np.argsort(frames)
-    return TrackedBody(result_body_model(seq, result), frames[order],
-                       np.asarray(result.state, float)[keep][order], str(path.resolve()))
+    return TrackedBody(model, frames[order], states[keep][order], str(path.resolve()))
 
 
 def _previous_run(writer, meta: dict, resume: bool, overwrite: bool):

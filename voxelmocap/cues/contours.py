@@ -224,7 +224,8 @@ def body_mask(geo, camera, *, size=None, index: int = 0) -> np.ndarray:
         The states' geometry.
     camera : voxelmocap.camera.Camera
     size : (int, int), optional
-        Mask ``(W, H)``; default the camera's image size.
+        Mask ``(W, H)``; default the camera's image size (the polygons stay in the camera's
+        pixels: another size crops or pads on the right and at the bottom).
     index : int
         Which state of ``geo``.
 
@@ -241,7 +242,8 @@ def body_mask(geo, camera, *, size=None, index: int = 0) -> np.ndarray:
         pts = points[index, p]
         if np.abs(pts).max() > 1e6:  # a part behind the lens's useful field: nothing to fill
             continue
-        # 4 fractional bits: the polygon's vertices are not rounded to whole pixels
+        # 4 fractional bits: the vertices are not rounded to whole pixels (OpenCV still fills
+        # every pixel whose centre a scanline's rounded ends reach: up to ½ px wider a side)
         hull = cv2.convexHull(np.round(pts * 16).astype(np.int32))
         cv2.fillConvexPoly(out, hull, 1, lineType=cv2.LINE_8, shift=4)
     return out.astype(bool)
