@@ -111,7 +111,7 @@ def test_tracked_body_refuses_another_sequence_and_too_few_frames(no_plate, tmp_
     shutil.copy(run / "S1" / "Walking_1.h5", few)
     with h5py.File(few, "r+") as f:
         f["observed"][1:] = 0
-    with pytest.raises(InputError, match="1 frame.* with the person tracked"):
+    with pytest.raises(InputError, match=r"1 frame.* with the person tracked"):
         tracked_body(few, seq)
 
 
