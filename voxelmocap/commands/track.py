@@ -86,7 +86,8 @@ def add_parser(subparsers) -> None:
 #: 211 mm, the silhouette cue at 10 to 116 mm, and with the gate open 74–77 mm; on the five
 #: rendered 4-camera clips (near-perfect silhouettes, no answer) the two are mixed, 91.7 → 109.0 mm
 #: on average (better on jog and box, worse on gestures and combo; docs/benchmarks.md).
-#: With ``--plate-from`` the cues only (the gate stays: on the demo 218 mm at 2, 223 mm open).
+#: With ``--plate-from`` the cues only (the gate stays: a second run on the demo tracked to 218 mm
+#: with it at 2, 223 mm open).
 MASKS_CUES = {"voxel": 1.0, "silhouette": 10.0}
 MASKS_MAX_HULL = 1000.0
 
