@@ -30,7 +30,8 @@ def test_the_plate_from_the_true_body_is_the_empty_scene(walk_dataset, no_plate)
     """The body fitted to the ground truth as the cover: the plate is the renderer's empty scene
     (its background videos, removed from the tracked copy) wherever the walk uncovered it."""
     from voxelmocap.body.fit import fit_to_landmarks
-    from voxelmocap.measurement_runner import MeasurementRunner, TrackedBody
+    from voxelmocap.body_cover import TrackedBody
+    from voxelmocap.measurement_runner import MeasurementRunner
     from voxelmocap.pipeline import body_model_for
     from voxelmocap.tracker import ground_truth_landmarks
 

@@ -15,54 +15,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import InputError
+from .pipeline import result_body_model  # the body a result used (owned by the pipeline)
 
 __all__ = ["ALL_CAMERAS", "ViewOutcome", "overlay_video", "result_body_model", "view_dump",
            "view_png_path"]
 
 #: The ``camera`` value of :func:`overlay_video` that draws every camera side by side.
 ALL_CAMERAS = "all"
-
-
-def result_body_model(seq, result, gt=None):
-    """The body model a result was tracked with, as its file records it.
-
-    A run without body file or ground truth sizes the body itself; the result file records how
-    (``body_dimensions``: every length, JSON, when they were fitted; ``body_height_mm``: the
-    average adult scaled to that height). Drawing :func:`~voxelmocap.pipeline.body_model_for`'s
-    unscaled average adult instead would show cones the tracker never used.
-
-    Parameters
-    ----------
-    seq : Sequence
-        The tracked sequence (its body file, when the result used one).
-    result : voxelmocap.io.results.Result
-        The result read back (its ``attrs``).
-    gt : GroundTruth, optional
-        The sequence's ground truth.
-
-    Returns
-    -------
-    BodyModel
-    """
-    import json
-
-    from .body import BodyDimensions, BodyModel
-    from .pipeline import body_model_for
-
-    attrs = result.attrs
-    if attrs.get("body_dimensions"):
-        try:
-            data = json.loads(str(attrs["body_dimensions"]))
-            return BodyModel(BodyDimensions(**{
-                k: tuple(float(x) for x in v) if isinstance(v, list) else float(v)
-                for k, v in data.items()}))
-        except (ValueError, TypeError) as exc:
-            raise InputError("result", f"body_dimensions is not a body's dimensions ({exc})") \
-                from None
-    height = attrs.get("body_height_mm")
-    if height is not None and str(attrs.get("body_model", "")).startswith("average adult scaled"):
-        return BodyModel.scaled(float(height))
-    return body_model_for(seq, gt)[0]
 
 
 def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | None = None,

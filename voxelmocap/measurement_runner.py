@@ -124,9 +124,10 @@ class MeasurementRunner(MeasurementStage):
         logger in any case).
     person_masks : voxelmocap.io.masks.PersonMasks, optional
         Silhouettes given with the recording (no background model).
-    plate_body : TrackedBody, optional
+    plate_body : voxelmocap.body_cover.TrackedBody, optional
         A previous run's body: a plate learnt from the sequence takes its image in each sampled
-        frame for the person (:func:`plate_covers_of`) instead of finding the person by carving.
+        frame for the person (:func:`~voxelmocap.body_cover.plate_covers_of`) instead of finding
+        the person by carving.
 
     Attributes
     ----------
@@ -142,8 +143,9 @@ class MeasurementRunner(MeasurementStage):
     """
 
     def __init__(self, seq, config: TrackConfig, log=None, *, person_masks=None,
-                 plate_body: TrackedBody | None = None):
+                 plate_body=None):
         from .background import learn_plates, plate_from_frames, plates_from_covers
+        from .body_cover import plate_covers_of
         from .grid import VoxelGrid
         from .silhouette import build_backgrounds
 
@@ -413,75 +415,6 @@ def _spread_over(numbers, count: int) -> np.ndarray:
     numbers = np.asarray(numbers)
     return numbers[np.unique(np.linspace(0, len(numbers) - 1, min(len(numbers), count))
                              .round().astype(int))]
-
-
-@dataclass(frozen=True)
-class TrackedBody:
-    """A previous run's body over the frames it tracked: a plate's cover (``--plate-from``).
-
-    Attributes
-    ----------
-    model : BodyModel
-        The body the run tracked with.
-    frames : (F,) int ndarray
-        Frame numbers, increasing (the frames where the run saw the person).
-    states : (F, 27) float ndarray
-        The tracked state of each.
-    source : str
-        Where it was read (for messages).
-    """
-
-    model: object
-    frames: np.ndarray
-    states: np.ndarray
-    source: str
-
-
-def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
-                    ) -> dict[str, np.ndarray]:
-    """Each camera's image of the body in each state, grown by ``margin``: a plate's cover.
-
-    Drawn at most ``max_side`` pixels on a side (the resolution :func:`learn_plates` finds its
-    covers at; :func:`~voxelmocap.background.plates_from_covers` resizes them).
-
-    Parameters
-    ----------
-    rig : sequence of Camera
-    model : BodyModel
-    states : (F, 27) array_like
-    margin : float
-        Millimetres at the body's depth (the tracked cones are not the person's exact outline).
-    max_side : int
-
-    Returns
-    -------
-    dict of str to (F, h, w) bool ndarray
-    """
-    import cv2
-
-    from .background import downscale_camera
-    from .cues.contours import body_mask
-
-    states = np.asarray(states, float)
-    geos = [model.geometry(states[f:f + 1], legal=False) for f in range(len(states))]
-    out = {}
-    for cam in rig:
-        w, h = cam.size
-        s = min(1.0, max_side / max(w, h))
-        small = downscale_camera(cam, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
-        masks = []
-        for geo in geos:
-            m = body_mask(geo, small)
-            depth = small.world_to_camera(geo.base[0].mean(axis=0)[None])[0, 2]
-            if m.any() and margin > 0 and depth > 0:
-                # grown by the margin's image at the body's depth (a distance transform: its
-                # cost does not grow with the radius, which is large for a body near the lens)
-                r = max(small.fc) * margin / depth
-                far = cv2.distanceTransform((~m).astype(np.uint8), cv2.DIST_L2, 5)
-                m = far <= r
-            masks.append(m)
-        out[cam.name] = np.stack(masks)
-    return out
 
 
 def _list(frames: list[int], n: int = 10) -> str:

@@ -524,6 +524,47 @@ _RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "fram
                 "person_masks", "plate_from")
 
 
+def result_body_model(seq, result, gt=None):
+    """The body model a result was tracked with, as its file records it.
+
+    A run without body file or ground truth sizes the body itself; the result file records how
+    (``body_dimensions``: every length, JSON, when they were fitted; ``body_height_mm``: the
+    average adult scaled to that height). Drawing :func:`~voxelmocap.pipeline.body_model_for`'s
+    unscaled average adult instead would show cones the tracker never used.
+
+    Parameters
+    ----------
+    seq : Sequence
+        The tracked sequence (its body file, when the result used one).
+    result : voxelmocap.io.results.Result
+        The result read back (its ``attrs``).
+    gt : GroundTruth, optional
+        The sequence's ground truth.
+
+    Returns
+    -------
+    BodyModel
+    """
+    import json
+
+    from .body import BodyDimensions, BodyModel
+
+    attrs = result.attrs
+    if attrs.get("body_dimensions"):
+        try:
+            data = json.loads(str(attrs["body_dimensions"]))
+            return BodyModel(BodyDimensions(**{
+                k: tuple(float(x) for x in v) if isinstance(v, list) else float(v)
+                for k, v in data.items()}))
+        except (ValueError, TypeError) as exc:
+            raise InputError("result", f"body_dimensions is not a body's dimensions ({exc})") \
+                from None
+    height = attrs.get("body_height_mm")
+    if height is not None and str(attrs.get("body_model", "")).startswith("average adult scaled"):
+        return BodyModel.scaled(float(height))
+    return body_model_for(seq, gt)[0]
+
+
 def tracked_body(run, seq, gt=None):
     """The body a previous run tracked in ``seq``: its model and states where it saw the person.
 
@@ -538,16 +579,15 @@ def tracked_body(run, seq, gt=None):
 
     Returns
     -------
-    voxelmocap.measurement_runner.TrackedBody
+    voxelmocap.body_cover.TrackedBody
 
     Raises
     ------
     InputError
         No such result, a result of another sequence, or fewer than 2 frames with the person.
     """
-    from .inspection import result_body_model
+    from .body_cover import TrackedBody
     from .io.results import read_result
-    from .measurement_runner import TrackedBody
 
     run = Path(run)
     path = run if run.is_file() else _result_paths(run, seq)[0]
