@@ -161,6 +161,8 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--{name}", "only with --all")
     from ..pipeline import track_sequence
 
+    if args.masks and args.plate_from:  # refused before any note about what they select
+        raise InputError("--plate-from", "not with --masks (given masks need no plate)")
     config = resolve_config(args)
     if args.masks or args.plate_from:
         config, message = (masks_defaults(config, bool(args.cues)) if args.masks else
