@@ -46,7 +46,7 @@ from .carving import Carver
 from .config import SilhouetteConfig
 from .errors import InputError
 
-__all__ = ["PlateBackground", "downscale_camera", "learn_plates", "masked_median",
+__all__ = ["PlateBackground", "camera_at_most", "downscale_camera", "learn_plates", "masked_median",
            "person_component", "plate_from_frames", "plates_from_covers"]
 
 _DEFAULT = SilhouetteConfig()
@@ -90,6 +90,13 @@ def downscale_camera(camera, size):
     return dataclasses.replace(camera, fc=np.asarray(camera.fc) * s,
                                cc=(np.asarray(camera.cc) + 0.5) * s - 0.5,
                                size=(int(size[0]), int(size[1])))
+
+
+def camera_at_most(camera, max_side: int):
+    """:func:`downscale_camera` to at most ``max_side`` pixels on a side (not enlarged)."""
+    w, h = camera.size
+    s = min(1.0, max_side / max(w, h))
+    return downscale_camera(camera, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
 
 
 def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
@@ -458,12 +465,10 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
         holes = 1 if len(cameras) >= 4 else 0
     small, small_cams = {}, []
     for cam in cameras:
-        w, h = cam.size
-        s = min(1.0, max_side / max(w, h))
-        size = (max(8, int(round(w * s))), max(8, int(round(h * s))))
-        small[cam.name] = np.stack([_channels(cv2.resize(f, size, interpolation=cv2.INTER_AREA))
+        small_cams.append(camera_at_most(cam, max_side))
+        small[cam.name] = np.stack([_channels(cv2.resize(f, small_cams[-1].size,
+                                                         interpolation=cv2.INTER_AREA))
                                     for f in full[cam.name]])
-        small_cams.append(downscale_camera(cam, size))
     carver = Carver(small_cams, grid)
 
     plates = {n: plate_from_frames(small[n], config, unstable=False) for n in names}

@@ -61,16 +61,14 @@ def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
     """
     import cv2
 
-    from .background import downscale_camera
+    from .background import camera_at_most
     from .cues.contours import body_mask
 
     states = np.asarray(states, float)
     geos = [model.geometry(states[f:f + 1], legal=False) for f in range(len(states))]
     out = {}
     for cam in rig:
-        w, h = cam.size
-        s = min(1.0, max_side / max(w, h))
-        small = downscale_camera(cam, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
+        small = camera_at_most(cam, max_side)
         masks = []
         for geo in geos:
             m = body_mask(geo, small)

@@ -212,7 +212,7 @@ def outline_pixels(geo, camera, scale, *, n: int = OUTLINE_POINTS
     return points, valid
 
 
-def body_mask(geo, camera, *, size=None, index: int = 0) -> np.ndarray:
+def body_mask(geo, camera, *, size=None) -> np.ndarray:
     """The pixels of one camera that see the body of one state (every part's image filled).
 
     Each part's image is the convex polygon of :func:`project_outlines`; a part not wholly in
@@ -221,13 +221,11 @@ def body_mask(geo, camera, *, size=None, index: int = 0) -> np.ndarray:
     Parameters
     ----------
     geo : voxelmocap.body.PartGeometry
-        The states' geometry.
+        The geometry of one state (its first is drawn).
     camera : voxelmocap.camera.Camera
     size : (int, int), optional
         Mask ``(W, H)``; default the camera's image size (the polygons stay in the camera's
         pixels: another size crops or pads on the right and at the bottom).
-    index : int
-        Which state of ``geo``.
 
     Returns
     -------
@@ -238,8 +236,8 @@ def body_mask(geo, camera, *, size=None, index: int = 0) -> np.ndarray:
     w, h = camera.size if size is None else size
     out = np.zeros((int(h), int(w)), np.uint8)
     points, valid = project_outlines(geo, camera)
-    for p in np.flatnonzero(valid[index]):
-        pts = points[index, p]
+    for p in np.flatnonzero(valid[0]):
+        pts = points[0, p]
         if np.abs(pts).max() > 1e6:  # a part behind the lens's useful field: nothing to fill
             continue
         # 4 fractional bits: the vertices are not rounded to whole pixels (OpenCV still fills
