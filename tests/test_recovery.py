@@ -399,15 +399,22 @@ def test_a_lost_track_is_detected_and_restarted_from_the_voxels():
 
     assert max(error(k) for k in range(5)) < 60.0  # tracked before the jump
     assert error(7) > 400.0  # lost (the body jumped 700 mm)
-    # Back on the person (how close depends on the initialiser's hypotheses: on these 40 mm
-    # cones the facing is ambiguous, 170-280 mm measured).
-    assert max(error(k) for k in range(9, 14)) < 0.6 * error(7)
+    # Back on the person: the re-initialisation's candidates have their limbs searched over
+    # their ranges as the first start's are (init.limb_sweep); 57-63 mm measured on seeds 1-3.
+    assert max(error(k) for k in range(9, 14)) < 100.0
+    # Without that search the extremity fit's raised arm is left where the fit put it
+    # (263-274 mm measured on seeds 1-2: on these 40 mm cones the facing is ambiguous too).
+    bare = BodyTracker(MODEL, with_overrides(config, **{"init.limb_sweep": False}), seed=1)
+    bare.initialise(frames[0], MODEL.landmarks(states[:1])[0], frame=1)
+    unswept = [bare.observe(f, frame=k + 1) for k, f in enumerate(frames)]
+    assert "limbs searched" in events[0][1] and "limbs searched" not in bare.recovery.events[0][1]
+    assert np.mean([error(k) for k in range(9, 14)]) + 100.0 < \
+        np.mean([error(k, unswept) for k in range(9, 14)])
     # With re-initialisation off, the rule only flags: the track stays lost.
     off = BodyTracker(MODEL, with_overrides(config, **{"recovery.reinitialise": False}), seed=1)
     off.initialise(frames[0], MODEL.landmarks(states[:1])[0], frame=1)
     kept = [off.observe(f, frame=k + 1) for k, f in enumerate(frames)]
     assert off.recovery.events == []
-    # (the coverage term pulls a lost track part of the way back: 460 → 290–330 mm, measured;
-    # the re-initialised one is at 266–274)
+    # (the coverage term pulls a lost track part of the way back: 460 → 290–330 mm, measured)
     lost = np.mean([error(k, kept) for k in range(9, 14)])
     assert lost > np.mean([error(k) for k in range(9, 14)]) + 50.0 and error(9, kept) > 400.0

@@ -503,8 +503,10 @@ class Recovery:
 
         The candidates are the extremity hypotheses of :func:`voxelmocap.initialise.initial_pose`
         and, when there is one, the last estimate moved horizontally onto the voxels (a person
-        who walked out and back in often comes back in much the same pose). All are ranked by
-        the likelihood; the filter starts from a mixture of the ``init.hypotheses`` best, and
+        who walked out and back in often comes back in much the same pose). With
+        ``init.limb_sweep`` their limbs are searched over their ranges
+        (:meth:`~voxelmocap.tracker.BodyTracker.searched_starts`), as at the first start. All
+        are ranked by the likelihood; the filter starts from a mixture of the ``init.hypotheses`` best, and
         this frame's IAPF proposal is that mixture too.
         """
         from .initialise import initial_pose
@@ -528,6 +530,12 @@ class Recovery:
             if order[0] == len(states):
                 how = "the last estimate moved onto the voxels"
             states = candidates[order]
+        if tracker.config.init.limb_sweep:
+            # as at the first start: an extremity fit leaves a limb it found no tip for
+            # hanging, and the annealing does not swing it up again (docs/benchmarks.md)
+            states, moved = tracker.searched_starts(observation, states)
+            states = states[np.argsort(-ll(states), kind="stable")]
+            how += f"; limbs searched over their ranges ({moved} moved)"
         phrase = f"the voxels of frame {int(frame)}: {how}"
         tracker.start(phrase, states if len(states) > 1 else states[0])
         tracker.pending_proposal = MixtureProposal(

@@ -539,6 +539,13 @@ class BodyTracker:
             moved += sum(g > 0 for g in gains.values())
         return out.reshape(states.shape), moved
 
+    def searched_starts(self, observation, states) -> tuple[np.ndarray, int]:
+        """:meth:`sweep_limbs` scored as a start is (paper 002's likelihood, no coverage term):
+        what a re-initialisation does to its candidates, as the first start does
+        (``init.limb_sweep``)."""
+        with self._paper_likelihood():
+            return self.sweep_limbs(observation, states)
+
     def initialise(self, observation, ground_truth=None, *, frame=None) -> str:
         """Draw the first particles around :meth:`initial_state`; returns how it started.
 
