@@ -378,7 +378,8 @@ class InitConfig:
     #: search each starting pose's four limbs over their whole legal ranges on the first frame
     #: (``voxelmocap.limb_search``; starts found from the voxels only): a start fitted to the
     #: extremities often has a limb in a wrong optimum the annealing never leaves. Measured on
-    #: the five clips without the answer (seed 0, σ²_DO 0.1): 84.1 mm without, 62.0 mm with
+    #: the five clips without the answer (seed 0, σ²_DO 0.1): 84.1 mm without, 62.0 mm with.
+    #: A re-initialisation (``voxelmocap.recovery``) searches its candidates' limbs too
     limb_sweep: bool = True
 
 
