@@ -370,6 +370,42 @@ def test_frames_without_a_person_before_the_start_wait_for_it(absence_dataset, t
     assert result.attrs["complete"] and result.checkpoint is not None
 
 
+def test_the_lost_track_rule_watches_the_voxel_cue_not_the_fused_value(monkeypatch):
+    # With an image cue fused in (the silhouette cue at weight 10 on real video) the recorded
+    # log-likelihood swings by hundreds from frame to frame on a good track; lost_drop (20) is a
+    # drop on the voxel cue's scale, so the rule must watch that cue's value. The fused value is
+    # simulated: the voxel cue's value, 200 lower on three frames in a row (the demo's fused
+    # value spans -1000 to -765 between its 5th and 95th percentiles on a track that is fine).
+    from voxelmocap.likelihood import log_likelihood_from_scores
+
+    states = walk(12)
+    frames = [seen(s) for s in states]
+    config = with_overrides(TINY, **{"filter.limb_sweep_every": 0})
+    swing = np.zeros(100)
+    swing[7:10] = -200.0
+    real = BodyTracker._record_log_likelihood
+
+    def fused(self, observation, est, scores):
+        return real(self, observation, est, scores) + swing[self.filter.frame]
+
+    monkeypatch.setattr(BodyTracker, "_record_log_likelihood", fused)
+    tracker = BodyTracker(MODEL, config, seed=0)
+    tracker.initialise(frames[0], MODEL.landmarks(states[:1])[0], frame=1)
+    records = [tracker.observe(f, frame=k + 1) for k, f in enumerate(frames)]
+    assert tracker.recovery.events == []
+    # what it watched is the voxel cue's value, independent of the swing
+    for r in records:
+        assert tracker.lost_track_value(r) == pytest.approx(
+            float(log_likelihood_from_scores(r.part_scores, variances=tracker.variances)))
+    # ... and the fused value alone would have fired on this good track
+    from voxelmocap.recovery import LostTrack
+
+    rc = config.recovery
+    rule = LostTrack(window=rc.lost_window, drop=rc.lost_drop, empty_max=rc.lost_empty,
+                     patience=rc.lost_patience)
+    assert any(rule.update(r.log_likelihood, r.part_scores) for r in records)
+
+
 def test_a_lost_track_is_detected_and_restarted_from_the_voxels():
     # The body jumps 700 mm sideways at frame 6: the filter (25 mm per frame) cannot follow, its
     # scores collapse (frames 6, 7, 8), the rule fires at frame 8 and frame 9 starts again from

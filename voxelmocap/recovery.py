@@ -491,7 +491,8 @@ class Recovery:
             self.events.append((int(frame), note))
         self.absent, self.pending = False, None
         record = tracker.step(observation, frame=frame)
-        if self.lost.update(record.log_likelihood, record.part_scores) and self.config.reinitialise:
+        if (self.lost.update(tracker.lost_track_value(record), record.part_scores)
+                and self.config.reinitialise):
             self.pending = (f"track lost at frame {int(frame)}: {self.lost.patience} frames of "
                             "collapsed scores")
             self.lost.reset()

@@ -707,14 +707,32 @@ class BodyTracker:
     def _record_log_likelihood(self, observation, est, scores) -> float:
         """The selected cues' value of the estimate, the voxel cue's without the coverage term
         (paper 002's, from the part scores when it is alone): what the multi-start ranks starts
-        by and the lost-track test watches. The coverage term is symmetric under turning round
-        and swings with the hull's phantom volume (:meth:`_paper_likelihood`)."""
+        by (the lost-track test watches :meth:`lost_track_value`). The coverage term is
+        symmetric under turning round and swings with the hull's phantom volume
+        (:meth:`_paper_likelihood`)."""
         from .likelihood import log_likelihood_from_scores
 
         if self.cues.voxel_only:
             return float(log_likelihood_from_scores(scores, variances=self.variances))
         with self._paper_likelihood():
             return float(self.cues.log_likelihood(observation, est)[0])
+
+    def lost_track_value(self, record: FrameRecord) -> float:
+        """What the lost-track rule (:class:`voxelmocap.recovery.LostTrack`) watches: the voxel
+        cue's value of the estimate from its part scores (paper 002's likelihood) whenever that
+        cue is selected, else the record's fused value.
+
+        ``[recovery] lost_drop`` is a drop on the voxel cue's scale. A fused value with an image
+        cue weighted in (the silhouette cue at 10) swings by far more than that from frame to
+        frame on a track that is fine: on the Pose2Sim demo the rule fired three times in 100
+        frames on the fused value and never on the voxel cue's, and each re-start lost more than
+        it mended (docs/benchmarks.md).
+        """
+        from .likelihood import log_likelihood_from_scores
+
+        if self._voxel_weight > 0:
+            return float(log_likelihood_from_scores(record.part_scores, variances=self.variances))
+        return float(record.log_likelihood)
 
     def proposal(self, observation) -> dict:
         """The IAPF's detector proposal for this frame, as ``AnnealedParticleFilter.step`` options.
