@@ -406,6 +406,24 @@ def test_the_lost_track_rule_watches_the_voxel_cue_not_the_fused_value(monkeypat
     assert any(rule.update(r.log_likelihood, r.part_scores) for r in records)
 
 
+@pytest.mark.parametrize("weights, voxel_scale", [
+    ({"voxel": 1.0, "silhouette": 10.0}, True),   # fused: the rule reads the voxel cue's value
+    ({"silhouette": 10.0}, False),                # no voxel cue: the recorded (fused) value
+])
+def test_the_value_the_rule_watches_with_and_without_the_voxel_cue(weights, voxel_scale):
+    import types
+
+    from voxelmocap.likelihood import log_likelihood_from_scores
+
+    config = with_overrides(TINY, **{"cues.weights": weights})
+    tracker = BodyTracker(MODEL, config, seed=0)
+    scores = np.random.default_rng(2).uniform(0.0, 0.3, (10, 4))
+    record = types.SimpleNamespace(part_scores=scores, log_likelihood=-900.0)
+    voxel = float(log_likelihood_from_scores(scores, variances=tracker.variances))
+    assert abs(voxel + 900.0) > 10 * config.recovery.lost_drop  # two scales, far apart
+    assert tracker.lost_track_value(record) == pytest.approx(voxel if voxel_scale else -900.0)
+
+
 def test_a_lost_track_is_detected_and_restarted_from_the_voxels():
     # The body jumps 700 mm sideways at frame 6: the filter (25 mm per frame) cannot follow, its
     # scores collapse (frames 6, 7, 8), the rule fires at frame 8 and frame 9 starts again from

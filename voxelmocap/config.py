@@ -419,7 +419,8 @@ class RecoveryConfig:
     #: of the body model's volume (a visual hull contains the body: 1.0–1.4 × when in view)
     min_volume_share: float = 0.3
     #: lost track: a frame is bad when the voxel cue's log-likelihood (paper 002's, whatever
-    #: other cues are fused; ``BodyTracker.lost_track_value``) is more than ``lost_drop`` below the
+    #: other cues are fused; the fused value when the voxel cue is not selected:
+    #: ``BodyTracker.lost_track_value``) is more than ``lost_drop`` below the
     #: median of the last ``lost_window`` good frames, or the mean Empty score of the parts is
     #: above ``lost_empty``; ``lost_patience`` bad frames in a row make the track lost (a good
     #: track varies between −11 and −26 on the rendered walk, median −14)

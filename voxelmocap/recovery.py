@@ -519,24 +519,27 @@ class Recovery:
         n = tracker.config.init.hypotheses
         states, how = initial_pose(ex, model, ll, n_best=max(n, 1))
         states = np.atleast_2d(states)
+        from_last = np.zeros(len(states), bool)   # which candidate is the moved last estimate
         if self.last_state is not None:
-            moved = self.last_state.copy()
+            last = self.last_state.copy()
             centre = observation.grid.centre_of(np.argwhere(observation.occupancy)).mean(axis=0)
-            pelvis = model.forward(moved[None]).joints[0, 1]  # row 1 is the pelvis
-            moved[:2] += centre[:2] - pelvis[:2]
-            moved = model.clip(moved[None])
-            candidates = np.concatenate([states, moved])
-            scores = ll(candidates)
-            order = np.argsort(-scores, kind="stable")[:max(n, 1)]
-            if order[0] == len(states):
-                how = "the last estimate moved onto the voxels"
-            states = candidates[order]
+            pelvis = model.forward(last[None]).joints[0, 1]  # row 1 is the pelvis
+            last[:2] += centre[:2] - pelvis[:2]
+            candidates = np.concatenate([states, model.clip(last[None])])
+            from_last = np.append(from_last, True)
+            order = np.argsort(-ll(candidates), kind="stable")[:max(n, 1)]
+            states, from_last = candidates[order], from_last[order]
+        searched = ""
         if tracker.config.init.limb_sweep:
             # as at the first start: an extremity fit leaves a limb it found no tip for
             # hanging, and the annealing does not swing it up again (docs/benchmarks.md)
-            states, moved = tracker.searched_starts(observation, states)
-            states = states[np.argsort(-ll(states), kind="stable")]
-            how += f"; limbs searched over their ranges ({moved} moved)"
+            states, n_moved = tracker.searched_starts(observation, states)
+            order = np.argsort(-ll(states), kind="stable")
+            states, from_last = states[order], from_last[order]
+            searched = f"; limbs searched over their ranges ({n_moved} moved)"
+        if from_last[0]:
+            how = "the last estimate moved onto the voxels"
+        how += searched
         phrase = f"the voxels of frame {int(frame)}: {how}"
         tracker.start(phrase, states if len(states) > 1 else states[0])
         tracker.pending_proposal = MixtureProposal(
