@@ -507,8 +507,8 @@ class Recovery:
         who walked out and back in often comes back in much the same pose). With
         ``init.limb_sweep`` their limbs are searched over their ranges
         (:meth:`~voxelmocap.tracker.BodyTracker.searched_starts`), as at the first start. All
-        are ranked by the likelihood; the filter starts from a mixture of the ``init.hypotheses`` best, and
-        this frame's IAPF proposal is that mixture too.
+        are ranked by the likelihood; the filter starts from a mixture of the
+        ``init.hypotheses`` best, and this frame's IAPF proposal is that mixture too.
         """
         from .initialise import initial_pose
 
