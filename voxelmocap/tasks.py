@@ -145,8 +145,10 @@ def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, report) -> list[Tas
     else:
         workers = n_workers or max(1, min(len(tasks), os.cpu_count() or 1))
         logger.info("starting a local Dask cluster of %d worker process(es)", workers)
+        # the dashboard on any free port: None still binds the default 8787 (and warns, or
+        # fails under warnings-as-errors, when another Dask session already holds it)
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               dashboard_address=":0")
         client = Client(cluster)
     outcomes = []
     try:
