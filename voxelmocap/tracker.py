@@ -477,7 +477,7 @@ class BodyTracker:
                                        n_best=self.config.init.hypotheses)
             phrase = f"the voxels of {which}: {how}"
         if self.config.init.limb_sweep:
-            states, moved = self.sweep_limbs(observation, states)
+            states, moved = self.searched_starts(observation, states)
             phrase += f"; limbs searched over their ranges ({moved} moved)"
         return phrase, states
 
@@ -541,8 +541,7 @@ class BodyTracker:
 
     def searched_starts(self, observation, states) -> tuple[np.ndarray, int]:
         """:meth:`sweep_limbs` scored as a start is (paper 002's likelihood, no coverage term):
-        what a re-initialisation does to its candidates, as the first start does
-        (``init.limb_sweep``)."""
+        the first start's and every re-initialisation's candidates (``init.limb_sweep``)."""
         with self._paper_likelihood():
             return self.sweep_limbs(observation, states)
 
