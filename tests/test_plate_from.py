@@ -15,14 +15,16 @@ SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles":
 
 @pytest.fixture(scope="module")
 def no_plate(walk_dataset, tmp_path_factory):
-    """The rendered walk without ``Background/``, and a first run of it (the plate learnt by
-    carving, the start from the ground truth)."""
+    """The rendered walk without ``Background/``, and a first run of it (one pass: the plate
+    learnt by carving, the start from the ground truth)."""
     root = tmp_path_factory.mktemp("noplate")
     data = root / "data"
     shutil.copytree(walk_dataset, data, ignore=shutil.ignore_patterns("Background"))
     run = root / "first"
+    (root / "one.toml").write_text("[measurement.silhouette]\nplate_passes = 1\n")
     assert main(["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers",
-                 "2", "--particles", "60", "--no-progress", "--out", str(run)]) == 0
+                 "2", "--particles", "60", "--no-progress", "--out", str(run), "--config",
+                 str(root / "one.toml")]) == 0
     return data, run
 
 
@@ -159,3 +161,59 @@ def test_plate_from_bad_input_is_one_line(walk_dataset, no_plate, tmp_path, caps
     assert len(err) == 1 and message in err[0], err
     assert "Traceback" not in "\n".join(err)
     assert not (tmp_path / "run" / "S1" / "Walking_1.h5").exists()
+
+
+def test_two_passes_are_a_run_and_a_plate_from_run(no_plate, tmp_path, capsys):
+    """Without background videos ``track`` runs a first pass (plate learnt by carving) and a
+    second whose plate comes from the first pass's body: what ``track`` and ``track
+    --plate-from`` typed by hand give (same seed), the same states."""
+    data, _ = no_plate
+    args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
+            "--particles", "60", "--frames", "1:4", "--no-progress"]
+    one = tmp_path / "one.toml"
+    one.write_text("[measurement.silhouette]\nplate_passes = 1\n")
+    assert main(args + ["--out", str(tmp_path / "a"), "--config", str(one)]) == 0
+    assert not (tmp_path / "a" / "S1" / "pass1").exists()
+    assert read_result(tmp_path / "a" / "S1" / "Walking_1.h5").attrs["plate_from"] == ""
+    assert main(args + ["--out", str(tmp_path / "b"), "--config", str(one),
+                        "--plate-from", str(tmp_path / "a")]) == 0
+    assert main(args + ["--out", str(tmp_path / "c")]) == 0
+    out = capsys.readouterr().out
+    assert "2 tracking passes" in out and "pass 2 of 2" in out
+    by_hand = read_result(tmp_path / "b" / "S1" / "Walking_1.h5")
+    passes = read_result(tmp_path / "c" / "S1" / "Walking_1.h5")
+    first = read_result(tmp_path / "c" / "S1" / "pass1" / "Walking_1.h5")
+    assert np.array_equal(first.state, read_result(tmp_path / "a" / "S1" /
+                                                   "Walking_1.h5").state)
+    assert np.array_equal(passes.state, by_hand.state)
+    assert passes.attrs["plate_from"] == str((tmp_path / "c" / "S1" / "pass1" /
+                                              "Walking_1.h5").resolve())
+    assert "silhouette = 10.0" in passes.attrs["config"]
+    assert first.attrs["plate_from"] == "" and "silhouette = 10.0" not in first.attrs["config"]
+
+
+def test_passes_resume_and_refuse_like_one_run(no_plate, tmp_path, capsys):
+    """A finished first pass is not tracked again by ``--resume``; an existing result is
+    refused before any pass runs."""
+    import os
+
+    data, _ = no_plate
+    out = tmp_path / "run"
+    args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
+            "--particles", "60", "--frames", "1:3", "--no-progress", "--out", str(out)]
+    assert main(args) == 0
+    first = out / "S1" / "pass1" / "Walking_1.h5"
+    final = out / "S1" / "Walking_1.h5"
+    stamp = os.stat(first).st_mtime_ns
+    states = read_result(final).state
+    final.unlink()                               # the final pass interrupted before a frame
+    capsys.readouterr()
+    assert main(args + ["--resume"]) == 0
+    assert "already complete" in capsys.readouterr().out
+    assert os.stat(first).st_mtime_ns == stamp
+    assert np.array_equal(read_result(final).state, states)
+    first.unlink()
+    assert main(args) == 2                       # exists: refused before the first pass
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "result exists" in err[0] and str(final) in err[0], err
+    assert not first.exists()

@@ -143,6 +143,12 @@ class SilhouetteConfig:
     #: On the Pose2Sim demo (the one recording measured) 0 / 20 / 50 / 90 / 150 mm gave silhouette
     #: IoU 0.797 / 0.801 / 0.790 / 0.775 / 0.750: a wider cover leaves more pixels never seen
     plate_body_margin: float = 20.0
+    #: learnt plate: tracking passes. Each pass after the first learns the plate from the body
+    #: the previous pass tracked (what ``track --plate-from RUN`` does by hand) and adds the
+    #: silhouette cue; the earlier passes' results go to ``RUN/<subject>/pass<k>/``. On the
+    #: Pose2Sim demo (seeds 0 / 1) one pass tracked to 470 / 270 mm, two to 130 / 102 mm, a
+    #: third to 82 / 423 mm (a start facing backwards): 2 by default (docs/benchmarks.md)
+    plate_passes: int = 2
     #: GrabCut runs at this share of the image's resolution (its cost grows with the pixels)
     grabcut_scale: float = 0.33
     grabcut_iterations: int = 2  #: GrabCut's iterations per silhouette
@@ -722,7 +728,7 @@ def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
         bad("mog2_history", ">= 1")
     if not 0 < obj.false_alarm < 0.5:
         bad("false_alarm", "between 0 and 0.5 (exclusive)")
-    for name in ("plate_frames", "plate_iterations", "plate_min_seen"):
+    for name in ("plate_frames", "plate_iterations", "plate_min_seen", "plate_passes"):
         if getattr(obj, name) < 1:
             bad(name, ">= 1")
     if not obj.plate_unstable > 1:

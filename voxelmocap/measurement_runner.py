@@ -30,7 +30,7 @@ from .logs import emit
 from .measurement import MeasurementStage
 from .observation import VoxelObservation
 
-__all__ = ["DumpOutcome", "MeasurementRunner", "dump_sequence", "person_grid"]
+__all__ = ["DumpOutcome", "MeasurementRunner", "dump_sequence", "learns_plate", "person_grid"]
 
 #: Top (mm) of the coarse box carved to learn a plate or place the grid: a raised hand.
 COARSE_HEIGHT_MM = 2500.0
@@ -110,6 +110,13 @@ def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxe
 logger = logging.getLogger(__name__)
 
 
+def learns_plate(seq, silhouette) -> bool:
+    """Whether a run learns a background plate from the sequence itself: a camera has no
+    background video and ``silhouette.method`` is ``gaussian`` or ``plate`` (not ``mog2``)."""
+    return (silhouette.method in ("gaussian", "plate")
+            and any(not seq.background_paths(c) for c in seq.camera_names))
+
+
 class MeasurementRunner(MeasurementStage):
     """The measurement stage of one sequence: its grid and background models, read once.
 
@@ -177,7 +184,7 @@ class MeasurementRunner(MeasurementStage):
                 frames[cam] = seq.background_sets(cam, max_frames=per_video)
         missing = [c for c in seq.camera_names if c not in frames]
         #: the background is learnt from the sequence itself (a real recording without plate)
-        self.learnt_plate = bool(missing) and silhouette.method in ("gaussian", "plate")
+        self.learnt_plate = learns_plate(seq, silhouette)
         holes = mc.carve_holes if mc.carve_holes is not None else (
             1 if self.learnt_plate and n_cam >= 4 else 0)
         person_only = mc.person_only if mc.person_only is not None else self.learnt_plate

@@ -128,8 +128,8 @@ def _sized_model(height_mm: float, frame):
             f"average adult scaled to {height_mm:.0f} mm, the height of the voxels{where}")
 
 
-def _result_paths(out_dir: Path, seq) -> tuple[Path, Path, Path]:
-    base = Path(out_dir) / seq.subject / seq.name
+def _result_paths(out_dir: Path, seq, folder: str = "") -> tuple[Path, Path, Path]:
+    base = Path(out_dir) / seq.subject / folder / seq.name
     return base.with_suffix(".h5"), base.with_suffix(".xml"), base.with_suffix(".bvh")
 
 
@@ -138,8 +138,13 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                    cameras=None, seed: int = 0, resume: bool = False, overwrite: bool = False,
                    progress: bool = True, log=None, fps: float | None = None,
                    recorder=None, trial: str | None = None, calibration=None,
-                   masks=None, plate_from=None) -> TrackOutcome:
+                   masks=None, plate_from=None, cues_given: bool = False) -> TrackOutcome:
     """Track one sequence and write its results (see the module docstring).
+
+    A run that learns its background plate from the sequence tracks it in passes
+    (:func:`voxelmocap.passes.plate_passes`): each pass after the first learns the plate from
+    the body the previous pass tracked, as ``plate_from`` does; the earlier passes' results go
+    to ``RUN/<subject>/pass<k>/`` and are resumed like the final one.
 
     Parameters
     ----------
@@ -189,10 +194,14 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         A previous run (its folder or result file) of this sequence: a plate learnt from the
         sequence takes the body it tracked for the person (:func:`tracked_body`), which finds
         the background behind the person better than carving against a first plate does.
+    cues_given : bool
+        The cues were chosen (``--cues``): masks or a plate from a body do not select the
+        silhouette cue (:func:`voxelmocap.passes.masks_defaults`; a config whose cues differ
+        from the defaults counts as a choice too).
     """
     from .io.masks import PersonMasks
-    from .io.results import ResultWriter
     from .io.sequence import open_sequence
+    from .passes import masks_defaults, pass_folder, plate_passes
 
     def say(message: str, level: int = logging.INFO) -> None:
         emit(logger, log, message, level)
@@ -209,9 +218,66 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         raise InputError("--plate-from", "not with --masks (given masks need no plate)")
     person_masks = None if masks is None else PersonMasks(masks, seq)
     gt = seq.ground_truth()
-    plate_body = None if plate_from is None else tracked_body(plate_from, seq, gt)
     selected = _select_frames(seq, gt, frames)
-    result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq)
+    passes = plate_passes(seq, config, masks=masks, plate_from=plate_from,
+                          n_frames=len(selected))
+    body_config, message = masks_defaults(config, cues_given, gate=False,
+                                          why="a plate from a tracked body")
+    if masks is not None:
+        config, message = masks_defaults(config, cues_given)
+    elif plate_from is not None:
+        config = body_config
+    if message and (masks is not None or plate_from is not None):
+        say(f"note: {message}")
+    common = dict(dataset_root=dataset_root, gt=gt, selected=selected, seed=seed,
+                  progress=progress, log=log, fps=fps, say=say)
+    final = _result_paths(Path(out_dir), seq)[0]
+    if passes == 1:
+        return _track_pass(seq, out_dir, config=config, resume=resume, overwrite=overwrite,
+                           recorder=recorder, masks=masks, person_masks=person_masks,
+                           plate_from=plate_from, **common)
+    if final.exists() and not (resume or overwrite):  # refused now, not after the first passes
+        raise InputError(final, "result exists; use --resume to continue it or --overwrite to "
+                                "replace it")
+    say(f"{passes} tracking passes (measurement.silhouette.plate_passes): the first learns the "
+        "background plate by carving, each later one from the body the pass before tracked"
+        + (f"; {message}" if message else ""))
+    # Resuming a final pass that has begun: the passes before it are complete (or it was not
+    # made by these passes: refused now, as the final pass would, before tracking them again).
+    skip = resume and final.exists()
+    if skip:
+        from .io.results import read_result
+
+        before = _result_paths(Path(out_dir), seq, pass_folder(passes - 1))[0]
+        if str(read_result(final).attrs.get("plate_from", "")) != str(before.resolve()):
+            raise InputError(final, "cannot resume: its plate_from differs from this run's "
+                                    "(use --overwrite to start again)")
+    previous = None
+    for k in range(1, passes):
+        folder = pass_folder(k)
+        if skip:
+            previous = _result_paths(Path(out_dir), seq, folder)[0]
+            continue
+        say(f"pass {k} of {passes} → {_result_paths(Path(out_dir), seq, folder)[0]}")
+        previous = _track_pass(seq, out_dir, folder=folder,
+                               config=config if k == 1 else body_config, resume=resume,
+                               overwrite=overwrite, recorder=None, masks=None,
+                               person_masks=None, plate_from=previous, **common).result_path
+    say(f"pass {passes} of {passes} → {final}")
+    return _track_pass(seq, out_dir, config=body_config, resume=resume, overwrite=overwrite,
+                       recorder=recorder, masks=None, person_masks=None, plate_from=previous,
+                       **common)
+
+
+def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resume, overwrite,
+                progress, log, fps, recorder, masks, person_masks, plate_from, say,
+                folder: str = "") -> TrackOutcome:
+    """One tracking pass of ``seq`` (:func:`track_sequence`), its results under
+    ``RUN/<subject>/<folder>/``."""
+    from .io.results import ResultWriter
+
+    plate_body = None if plate_from is None else tracked_body(plate_from, seq, gt)
+    result_path, xml_path, bvh_path = _result_paths(Path(out_dir), seq, folder)
     model, model_source = body_model_for(seq, gt)
     # With neither a body file nor ground truth, the body is sized from the first frame's voxels
     # once they are measured (init.body = "voxels"); the tracker waits for it.
@@ -289,7 +355,8 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                      meta["frames_requested"], seed, fps)
         if recorder is not None:
             recorder.start(seq, stage.grid)
-        bar = _progress(len(selected), resumed_from, progress, f"{seq.subject}/{seq.name}")
+        bar = _progress(len(selected), resumed_from, progress,
+                        f"{seq.subject}/{seq.name}" + (f" ({folder})" if folder else ""))
         starts = None  # a MultiStart while its first frames run
         start_observations = []  # its frames' measurements, when the body is fitted on them
         waiting = []  # flagged records of the frames without a person before the start
@@ -590,7 +657,7 @@ def tracked_body(run, seq, gt=None):
     from .io.results import read_result
 
     run = Path(run)
-    path = run if run.is_file() else _result_paths(run, seq)[0]
+    path = run if run.is_file() or run.suffix == ".h5" else _result_paths(run, seq)[0]
     if not path.is_file():
         raise InputError(path, f"no result of {seq.subject}/{seq.name} here (--plate-from takes a "
                                "run folder of this sequence or its .h5 result)")

@@ -118,7 +118,11 @@ def test_given_masks_place_the_grid_around_the_person(walk_dataset, tmp_path):
 def test_track_with_the_subtraction_s_masks_tracks_as_without(project, tmp_path):
     root, _, _, masks = project
     folder = _write(tmp_path / "masks", masks)
-    quiet = {"config": SAME_STAGE, "frames": "1:3", "seed": 1, "progress": False,
+    from voxelmocap.passes import masks_defaults
+
+    # the cues and gate that masks select, given to both runs (the masks then change nothing)
+    config = masks_defaults(SAME_STAGE, cues_given=False)[0]
+    quiet = {"config": config, "frames": "1:3", "seed": 1, "progress": False,
              "log": lambda *_: None}
     plain = read_result(track_sequence(root, None, None, tmp_path / "a", **quiet).result_path)
     outcome = track_sequence(root, None, None, tmp_path / "b", masks=folder, **quiet)
@@ -162,7 +166,7 @@ def test_bad_masks_name_the_file(project, tmp_path, capsys, damage, message):
 
 
 def test_masks_defaults_choose_the_silhouette_cue_and_open_the_gate():
-    from voxelmocap.commands.track import MASKS_CUES, MASKS_MAX_HULL, masks_defaults
+    from voxelmocap.passes import MASKS_CUES, MASKS_MAX_HULL, masks_defaults
 
     config, message = masks_defaults(TrackConfig(), cues_given=False)
     assert config.cues.weights == MASKS_CUES

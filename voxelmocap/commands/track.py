@@ -43,7 +43,9 @@ def add_parser(subparsers) -> None:
                         help="without background videos: learn the plate with the body a "
                              "previous run (its folder or .h5) tracked in this sequence as the "
                              "person, instead of carving against a first plate; the run then "
-                             "uses the silhouette cue too (see docs/projects.md)")
+                             "uses the silhouette cue too. Without it a run that learns its plate "
+                             "does this itself: a first pass, then a pass with the plate from its "
+                             "body ([measurement.silhouette] plate_passes; docs/projects.md)")
     parser.add_argument("--all", action="store_true",
                         help="track every sequence with videos of the data set; finished ones "
                              "are skipped, interrupted ones resumed")
@@ -79,42 +81,6 @@ def add_parser(subparsers) -> None:
                              "result file always holds the raw estimates)")
     parser.add_argument("--out", required=True, help="run folder RUN")
     parser.set_defaults(run=run, log_folder=lambda args: args.out)
-
-
-#: With ``--masks``: the cues and the limb sweep's hull gate used unless chosen otherwise. On
-#: the Pose2Sim demo with MediaPipe's masks, the voxel cue alone with the gate at 2 tracked to
-#: 211 mm, the silhouette cue at 10 to 116 mm, and with the gate open 74–77 mm; on the five
-#: rendered 4-camera clips (near-perfect silhouettes, no answer) the two are mixed, 91.7 → 109.0 mm
-#: on average (better on jog and box, worse on gestures and combo; docs/benchmarks.md).
-#: With ``--plate-from`` the cues only (the gate stays: a second run on the demo tracked to 218 mm
-#: with it at 2, 223 mm open).
-MASKS_CUES = {"voxel": 1.0, "silhouette": 10.0}
-MASKS_MAX_HULL = 1000.0
-
-
-def masks_defaults(config, cues_given: bool, *, why: str = "given person masks",
-                   gate: bool = True):
-    """``config`` with :data:`MASKS_CUES` (unless ``--cues`` was given or the config chose
-    other cues) and, with ``gate``, :data:`MASKS_MAX_HULL` (unless the config set the gate),
-    and the message saying so, starting with ``why`` (None when nothing changed)."""
-    import dataclasses
-
-    from ..config import TrackConfig, with_overrides
-
-    default = TrackConfig()
-    changed = []
-    if not cues_given and config.cues.weights == default.cues.weights:
-        config = dataclasses.replace(config, cues=dataclasses.replace(
-            config.cues, weights=dict(MASKS_CUES)))
-        changed.append("cues " + ",".join(f"{k}={v:g}" for k, v in MASKS_CUES.items()))
-    if gate and config.filter.limb_sweep_max_hull == default.filter.limb_sweep_max_hull:
-        config = with_overrides(config, **{"filter.limb_sweep_max_hull": MASKS_MAX_HULL})
-        changed.append(f"[filter] limb_sweep_max_hull = {MASKS_MAX_HULL:g} (the limb sweep on "
-                       "every sweep frame)")
-    if not changed:
-        return config, None
-    return config, (f"{why}: " + " and ".join(changed) + " (docs/projects.md; "
-                    "--cues or the config file choose otherwise)")
 
 
 def resolve_config(args):
@@ -164,12 +130,6 @@ def run(args: argparse.Namespace) -> int:
     if args.masks and args.plate_from:  # refused before any note about what they select
         raise InputError("--plate-from", "not with --masks (given masks need no plate)")
     config = resolve_config(args)
-    if args.masks or args.plate_from:
-        config, message = (masks_defaults(config, bool(args.cues)) if args.masks else
-                           masks_defaults(config, bool(args.cues), gate=False,
-                                          why="a plate from a tracked body"))
-        if message:
-            logger.info(f"note: {message}")
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     if cameras is not None:
         from ..cues import CueSet
@@ -189,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
                                  seed=args.seed, resume=args.resume, overwrite=args.overwrite,
                                  progress=not args.no_progress, recorder=recorder,
                                  trial=args.trial, calibration=args.calibration,
-                                 masks=args.masks, plate_from=args.plate_from)
+                                 masks=args.masks, plate_from=args.plate_from,
+                                 cues_given=bool(args.cues))
         recorded = recorder.close() if recorder is not None else None
     finally:
         if recorder is not None:
