@@ -336,6 +336,7 @@ def diagnose(args) -> None:
     from voxelmocap.io.sequence import open_sequence
     from voxelmocap.joints import LANDMARK_NAMES
     from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.pipeline import tracked_body
     from voxelmocap.tracker import BodyTracker
 
     if args.mediapipe_masks:
@@ -346,7 +347,10 @@ def diagnose(args) -> None:
                             **{"cues.silhouette_unseen": args.unseen})
     seq = open_sequence(args.demo)
     model = result_body_model(seq, result)
-    runner = MeasurementRunner(seq, config, log=None)
+    plate_from = str(result.attrs.get("plate_from", ""))
+    # the run's own silhouettes: a pass whose plate came from a body learns it from that body
+    runner = MeasurementRunner(seq, config, log=None,
+                               plate_body=tracked_body(plate_from, seq) if plate_from else None)
     tracker = BodyTracker(model, config)
     scored = [j for j, n in enumerate(LANDMARK_NAMES) if n in LANDMARK_MAP]
     rows = {int(f): i for i, f in enumerate(result.frames)}

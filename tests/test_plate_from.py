@@ -179,7 +179,7 @@ def test_two_passes_are_a_run_and_a_plate_from_run(no_plate, tmp_path, capsys):
                         "--plate-from", str(tmp_path / "a")]) == 0
     assert main(args + ["--out", str(tmp_path / "c")]) == 0
     out = capsys.readouterr().out
-    assert "2 tracking passes" in out and "pass 2 of 2" in out
+    assert "2 tracking passes" in out and "tracking pass 2 of 2" in out
     by_hand = read_result(tmp_path / "b" / "S1" / "Walking_1.h5")
     passes = read_result(tmp_path / "c" / "S1" / "Walking_1.h5")
     first = read_result(tmp_path / "c" / "S1" / "pass1" / "Walking_1.h5")

@@ -258,12 +258,12 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         if skip:
             previous = _result_paths(Path(out_dir), seq, folder)[0]
             continue
-        say(f"pass {k} of {passes} → {_result_paths(Path(out_dir), seq, folder)[0]}")
+        say(f"tracking pass {k} of {passes} → {_result_paths(Path(out_dir), seq, folder)[0]}")
         previous = _track_pass(seq, out_dir, folder=folder,
                                config=config if k == 1 else body_config, resume=resume,
                                overwrite=overwrite, recorder=None, masks=None,
                                person_masks=None, plate_from=previous, **common).result_path
-    say(f"pass {passes} of {passes} → {final}")
+    say(f"tracking pass {passes} of {passes} → {final}")
     return _track_pass(seq, out_dir, config=body_config, resume=resume, overwrite=overwrite,
                        recorder=recorder, masks=None, person_masks=None, plate_from=previous,
                        **common)
