@@ -16,6 +16,7 @@ Only this module, :mod:`voxelmocap.pipeline`, :mod:`voxelmocap.io` and the comma
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Iterable, Iterator, Mapping
@@ -204,8 +205,11 @@ class MeasurementRunner(MeasurementStage):
                 samples = self._read_frames(seq, numbers)
                 states = plate_body.states[np.searchsorted(plate_body.frames, numbers)]
                 plain = [cam for cam in rig if cam.name in missing]  # the others have videos
+                seen = max(silhouette.plate_min_seen,
+                           int(round(silhouette.plate_body_min_seen * len(numbers))))
                 plates = plates_from_covers(samples, plain, plate_covers_of(
-                    plain, plate_body.model, states, silhouette.plate_body_margin), silhouette)
+                    plain, plate_body.model, states, silhouette.plate_body_margin),
+                    dataclasses.replace(silhouette, plate_min_seen=max(1, seen)))
                 how = f"the person where the body of {plate_body.source} was"
             else:
                 samples = self._sample_frames(seq, silhouette.plate_frames)
