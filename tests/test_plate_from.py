@@ -63,6 +63,41 @@ def test_the_plate_from_the_true_body_is_the_empty_scene(walk_dataset, no_plate)
         assert wrong(plate) < 0.005 and wrong(plate) < 0.5 * wrong(carved.backgrounds[cam]), cam
 
 
+def test_pixels_the_body_left_free_too_rarely_are_unknown(no_plate):
+    """``plate_body_min_seen``: a pixel the body's cover left free in fewer than that share of
+    the sampled frames (counted here from the covers themselves) is unknown; the others keep
+    what the plate's other rules (samples that spread: unknown) said without the share."""
+    import cv2
+
+    from voxelmocap.body_cover import TrackedBody, plate_covers_of
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.pipeline import tracked_body
+
+    data, run = no_plate
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    body = tracked_body(run, seq)
+    known = {}
+    for share in (0.0, 0.5):
+        config = with_overrides(SMALL, **{"measurement.silhouette.plate_body_min_seen": share})
+        runner = MeasurementRunner(seq, config, plate_body=TrackedBody(
+            body.model, body.frames, body.states, "the run"))
+        covers = plate_covers_of(seq.rig, body.model, body.states,
+                                 config.measurement.silhouette.plate_body_margin)
+        need = max(1, round(share * len(body.frames)))
+        for cam in seq.rig:
+            plate = runner.backgrounds[cam.name]
+            h, w = plate.known.shape
+            free = sum(~cv2.resize(c.astype(np.uint8), (w, h),
+                                   interpolation=cv2.INTER_NEAREST).astype(bool)
+                       for c in covers[cam.name])
+            assert not (plate.known & (free < need)).any(), (share, cam.name)
+            known[share, cam.name] = (plate.known, free >= need)
+    for cam in seq.camera_names:
+        (without, _), (with_share, enough) = known[0.0, cam], known[0.5, cam]
+        assert (with_share != (without & enough)).mean() < 0.01, cam   # the noise floor moves
+        assert (without & ~enough).mean() > 0.01, cam                  # the share mattered
+
+
 def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
     from voxelmocap.pipeline import tracked_body
 
