@@ -71,3 +71,42 @@ def test_height_from_voxels(height):
     # The cone body ends at the ankles (no feet): its voxels span the skeleton, quantised.
     assert abs(est - skeleton) <= 3 * GRID.voxel_size, (est, skeleton)
     assert estimate_height([None, None]) is None
+
+
+def test_turned_round_is_the_half_turn_about_the_pelvis():
+    """Closed form: a half turn about the vertical through the pelvis maps (x, y, z) to
+    (2 px − x, 2 py − y, z), and the turned pose's left landmarks land there too."""
+    from voxelmocap.body.kinematics import PELVIS
+    from voxelmocap.initialise import turned_round
+
+    model = BodyModel()
+    x = _pose(model, np.random.default_rng(7))
+    before = model.landmarks(x[None])[0]
+    after = model.landmarks(turned_round(x)[None])[0]
+    pelvis = before[PELVIS]
+    expected = before.copy()
+    expected[:, :2] = 2 * pelvis[:2] - before[:, :2]
+    np.testing.assert_allclose(after, expected, atol=1e-6)
+    assert -np.pi <= turned_round(x)[3] < np.pi
+
+
+def test_several_starts_hold_the_best_one_turned_round():
+    from voxelmocap.initialise import turned_round
+
+    model = BodyModel()
+    x = _pose(model, np.random.default_rng(3))
+    occ = _occupancy(model, x)
+    m = Measurement(occ, GRID)
+
+    def ll(s):
+        return log_likelihood(m, model, s, clip=True)
+
+    ex = find_extremities(occ, GRID)
+    plain, how = initial_pose(ex, model, ll, n_best=4)
+    states, how_turned = initial_pose(ex, model, ll, n_best=4, turned=True)
+    assert len(states) == 4 and "turned round" in how_turned and "turned" not in how
+    np.testing.assert_array_equal(states[:3], plain[:3])          # the best three are kept
+    np.testing.assert_allclose(states[3], turned_round(plain[0]))
+    # with one start asked for there is no twin
+    one, _ = initial_pose(ex, model, ll, n_best=1, turned=True)
+    np.testing.assert_array_equal(one, plain[0])
