@@ -373,10 +373,6 @@ class InitConfig:
     #: the five clips without the answer (3 seeds): 10 → mean μ 95 mm, no lost track; 0 → 143 mm
     #: (one or two seeds of four clips lost, facing turned); docs/benchmarks.md
     multistart_frames: int = 10
-    #: ``extremities`` with several starts: the best start turned round by 180° is one of them
-    #: (``voxelmocap.initialise.initial_pose``), so that the multi-start's frames of motion can
-    #: decide the facing the near-symmetric cones cannot
-    turned_start: bool = True
     #: body size when there is no body file and no ground truth: ``voxels`` scales the average
     #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult,
     #: ``fitted`` also fits the limb lengths to the voxels of the multi-start frames and tracks

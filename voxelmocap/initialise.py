@@ -43,7 +43,7 @@ from .body.kinematics import (
 )
 from .detect import Extremities
 
-__all__ = ["Hypothesis", "estimate_height", "initial_pose", "pose_hypotheses", "turned_round"]
+__all__ = ["Hypothesis", "estimate_height", "initial_pose", "pose_hypotheses"]
 
 #: Hand length (wrist → finger tip) and floor → ankle height as shares of the standing height
 #: (anthropometric averages; Drillis & Contini 1966: hand 0.108, ankle 0.039).
@@ -289,17 +289,8 @@ def _distinct(model, states, scores, n: int, min_apart_mm: float) -> list[int]:
     return chosen
 
 
-def turned_round(states) -> np.ndarray:
-    """``states`` turned by 180° about the vertical through the pelvis (limb angles kept)."""
-    from .body.state import STATE_INDEX, wrap_heading
-
-    out = np.array(states, dtype=float, copy=True)
-    out[..., STATE_INDEX["root_yaw"]] += np.pi
-    return wrap_heading(out)
-
-
 def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36,
-                 n_best: int = 1, min_apart_mm: float = 150.0, turned: bool = False):
+                 n_best: int = 1, min_apart_mm: float = 150.0):
     """The most likely starting pose(s) among the fitted hypotheses and the standing poses.
 
     Parameters
@@ -317,12 +308,6 @@ def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36,
         about as high as the right one, and a few frames of motion tell them apart.
     min_apart_mm : float
         Returned poses differ by at least this mean landmark distance (mm).
-    turned : bool
-        With ``n_best > 1``: the best pose turned round (:func:`turned_round`) is one of the
-        poses returned (in place of the last), unless one is already within ``min_apart_mm`` of
-        it. The ranking cannot be trusted to keep it: the cones are nearly front–back
-        symmetric, so the best pose's turned twin may score below poses that are merely
-        different, and then no start faces the other way.
 
     Returns
     -------
@@ -346,11 +331,4 @@ def initial_pose(ex: Extremities, model, log_likelihood, *, n_yaw: int = 36,
     how = labels[chosen[0]]
     if n_best <= 1:
         return states[chosen[0]], how
-    out, note = states[chosen], ""
-    if turned:
-        twin = turned_round(out[0])
-        landmarks = model.landmarks(np.vstack([out, twin[None]]))
-        if np.linalg.norm(landmarks[:-1] - landmarks[-1], axis=2).mean(axis=1).min() \
-                >= min_apart_mm:
-            out, note = np.vstack([out[:n_best - 1], twin[None]]), " (the last: the first turned round)"
-    return out, how + f" and {len(out) - 1} other hypotheses" + note
+    return states[chosen], how + f" and {len(chosen) - 1} other hypotheses"

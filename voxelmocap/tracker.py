@@ -474,8 +474,7 @@ class BodyTracker:
                 raise InputError(which, "no occupied voxel: cannot initialise from the voxels "
                                         "(is the person in view? is the background model right?)")
             states, how = initial_pose(ex, self.model, self.log_likelihood(observation),
-                                       n_best=self.config.init.hypotheses,
-                                       turned=self.config.init.turned_start)
+                                       n_best=self.config.init.hypotheses)
             phrase = f"the voxels of {which}: {how}"
         if self.config.init.limb_sweep:
             states, moved = self.searched_starts(observation, states)
