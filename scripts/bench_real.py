@@ -115,7 +115,12 @@ def silhouettes(args) -> None:
     step = args.step
     frames = list(seq.frame_numbers)
     t0 = time.perf_counter()
-    runner = MeasurementRunner(seq, _config(args), log=print)
+    plate_body = None
+    if args.plate_from is not None:  # the plate of a pass learnt from an earlier run's body
+        from voxelmocap.pipeline import tracked_body
+
+        plate_body = tracked_body(args.plate_from, seq)
+    runner = MeasurementRunner(seq, _config(args), log=print, plate_body=plate_body)
     t_plate = time.perf_counter() - t0
     variants = {}
     if not args.no_mog2:
@@ -447,6 +452,9 @@ def main(argv=None) -> int:
             p.add_argument("--plate-support", action="store_true",
                            help="learn the plate with [measurement.silhouette] plate_support")
             p.add_argument("--config", type=Path, help="a track --config TOML (the measurement)")
+        if name == "silhouettes":
+            p.add_argument("--plate-from", type=Path, metavar="RUN",
+                           help="learn the plate with RUN's body (track --plate-from)")
         if name == "carving":
             p.add_argument("--mediapipe-masks", action="store_true",
                            help="carve MediaPipe's masks instead of the silhouettes")

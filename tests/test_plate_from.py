@@ -252,3 +252,35 @@ def test_passes_resume_and_refuse_like_one_run(no_plate, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "result exists" in err[0] and str(final) in err[0], err
     assert not first.exists()
+
+
+def test_dump_measures_with_the_plate_from_a_run(no_plate, tmp_path):
+    """``dump --plate-from``: the silhouettes a final pass measured (the plate from the body),
+    the run recorded in the dump; a pass folder holding the result directly is accepted."""
+    from voxelmocap.body_cover import TrackedBody
+    from voxelmocap.io.voxels import VoxelDump
+    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.pipeline import tracked_body
+
+    data, run = no_plate
+    folder = tmp_path / "pass1"
+    folder.mkdir()
+    shutil.copy(run / "S1" / "Walking_1.h5", folder / "Walking_1.h5")
+    out = tmp_path / "vox.h5"
+    assert main(["dump", str(data), "--subject", "S1", "--sequence", "Walking_1", "--frames",
+                 "2:3", "--masks", "--no-progress", "--out", str(out), "--plate-from",
+                 str(folder)]) == 0
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    body = tracked_body(folder, seq)
+    assert body.source == str((folder / "Walking_1.h5").resolve())
+    runner = MeasurementRunner(seq, TrackConfig(), plate_body=TrackedBody(
+        body.model, body.frames, body.states, body.source))
+    carved = MeasurementRunner(seq, TrackConfig())
+    dump = VoxelDump(out)
+    assert dump.attrs["plate_from"] == body.source
+    for number, images in seq.frames([2, 3]):
+        stored = dump.masks(int(number))
+        mine = runner.measure(images, frame=number).masks
+        theirs = carved.measure(images, frame=number).masks
+        assert all(np.array_equal(a, b) for a, b in zip(stored, mine, strict=True))
+        assert not all(np.array_equal(a, b) for a, b in zip(stored, theirs, strict=True))

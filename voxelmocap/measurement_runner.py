@@ -446,7 +446,8 @@ class DumpOutcome:
 def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
                   config: TrackConfig | None = None, frames: str | None = None, cameras=None,
                   masks: bool = False, ply_dir=None, ply_points: bool = False,
-                  progress: bool = True, log=None, trial: str | None = None) -> DumpOutcome:
+                  progress: bool = True, log=None, trial: str | None = None,
+                  plate_from=None) -> DumpOutcome:
     """Measure the frames of one sequence and write every volume to a voxel dump.
 
     Parameters
@@ -476,6 +477,10 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     trial : str, optional
         Project trial (a Pose2Sim / anipose / EasyMocap project, :func:`~voxelmocap.io.sequence.
         open_sequence`; default its only trial).
+    plate_from : str or os.PathLike, optional
+        A run of this sequence (its folder or result file): the plate learnt from the sequence
+        takes its body for the person, as ``track --plate-from`` and a final tracking pass do
+        (:func:`voxelmocap.pipeline.tracked_body`), so the dump shows what that pass measured.
 
     Returns
     -------
@@ -508,14 +513,20 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     if len(selected) == 0:
         raise InputError(f"{seq.subject}/{seq.name}", "no frames to dump")
 
-    runner = MeasurementRunner(seq, config, log=log)
+    plate_body = None
+    if plate_from is not None:
+        from .pipeline import tracked_body
+
+        plate_body = tracked_body(plate_from, seq, seq.ground_truth())
+    runner = MeasurementRunner(seq, config, log=log, plate_body=plate_body)
     grid = runner.grid
     emit(logger, log, f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
                       f"{','.join(seq.camera_names)}, grid {grid.shape[0]}x{grid.shape[1]}x"
                       f"{grid.shape[2]} at {grid.voxel_size:g} mm")
     attrs = {"dataset": str(Path(dataset_root).resolve()), "subject": seq.subject,
              "sequence": seq.name, "config": config_to_toml(config),
-             "surface_sigma": float(config.measurement.surface_sigma)}
+             "surface_sigma": float(config.measurement.surface_sigma),
+             "plate_from": "" if plate_body is None else plate_body.source}
     bar = None
     if progress:
         from tqdm.auto import tqdm

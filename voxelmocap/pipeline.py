@@ -658,6 +658,8 @@ def tracked_body(run, seq, gt=None):
 
     run = Path(run)
     path = run if run.is_file() or run.suffix == ".h5" else _result_paths(run, seq)[0]
+    if not path.is_file() and (run / path.name).is_file():   # a pass folder: RUN/<trial>/pass1
+        path = run / path.name
     if not path.is_file():
         raise InputError(path, f"no result of {seq.subject}/{seq.name} here (--plate-from takes a "
                                "run folder of this sequence or its .h5 result)")

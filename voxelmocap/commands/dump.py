@@ -40,6 +40,11 @@ def add_parser(subparsers) -> None:
                              "cameras that see the voxel)")
     parser.add_argument("--background", choices=("gaussian", "mog2"),
                         help="background model (default gaussian, the HumanEva toolkit's)")
+    parser.add_argument("--plate-from", metavar="RUN",
+                        help="without background videos: learn the plate with the body RUN "
+                             "tracked (a run folder, a pass folder or a .h5), as track's final "
+                             "pass does: give a two-pass run's RUN/<trial>/pass1 to see what "
+                             "its final pass measured")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.set_defaults(run=run, log_folder=_log_folder)
 
@@ -69,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     outcome = dump_sequence(args.dataset, args.subject, args.sequence, args.out,
                             config=_config(args), frames=args.frames, cameras=cameras,
                             masks=args.masks, ply_dir=args.ply, ply_points=args.ply_points,
-                            progress=not args.no_progress)
+                            progress=not args.no_progress, plate_from=args.plate_from)
     per_frame = ", ".join(f"{k} {1000 * v:.1f}" for k, v in outcome.seconds_per_frame.items())
     logger.info(f"wrote {outcome.path} ({len(outcome.frames)} frames); ms per frame: {per_frame}")
     if outcome.ply_dir is not None:
