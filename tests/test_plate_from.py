@@ -198,60 +198,116 @@ def test_plate_from_bad_input_is_one_line(walk_dataset, no_plate, tmp_path, caps
     assert not (tmp_path / "run" / "S1" / "Walking_1.h5").exists()
 
 
-def test_two_passes_are_a_run_and_a_plate_from_run(no_plate, tmp_path, capsys):
+@pytest.fixture(scope="module")
+def long_walk(tmp_path_factory):
+    """A 12-frame walk at 6 Hz (2 s: the person uncovers the floor) without ``Background/``,
+    and its two-pass run."""
+    from voxelmocap.synth import generate
+
+    root = tmp_path_factory.mktemp("long")
+    data = generate(root / "data", motion="walk", frames=12, fps=6,
+                    cameras=["C1", "C2", "C3", "BW1"], progress=False, background_frames=2,
+                    seed=5)
+    shutil.rmtree(data / "Background")
+    assert main(_args(data, "--out", str(root / "run"))) == 0
+    return data, root / "run"
+
+
+def _args(data, *extra):
+    return ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
+            "--particles", "60", "--frames", "1:10", "--no-progress", *extra]
+
+
+def test_two_passes_are_a_run_and_a_plate_from_run(long_walk, tmp_path):
     """Without background videos ``track`` runs a first pass (plate learnt by carving) and a
     second whose plate comes from the first pass's body: what ``track`` and ``track
     --plate-from`` typed by hand give (same seed), the same states."""
-    data, _ = no_plate
-    args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
-            "--particles", "60", "--frames", "1:4", "--no-progress"]
+    data, run = long_walk
     one = tmp_path / "one.toml"
     one.write_text("[measurement.silhouette]\nplate_passes = 1\n")
-    assert main(args + ["--out", str(tmp_path / "a"), "--config", str(one)]) == 0
+    assert main(_args(data, "--out", str(tmp_path / "a"), "--config", str(one))) == 0
     assert not (tmp_path / "a" / "S1" / "pass1").exists()
     assert read_result(tmp_path / "a" / "S1" / "Walking_1.h5").attrs["plate_from"] == ""
-    assert main(args + ["--out", str(tmp_path / "b"), "--config", str(one),
-                        "--plate-from", str(tmp_path / "a")]) == 0
-    assert main(args + ["--out", str(tmp_path / "c")]) == 0
-    out = capsys.readouterr().out
-    assert "2 tracking passes" in out and "tracking pass 2 of 2" in out
+    assert main(_args(data, "--out", str(tmp_path / "b"), "--config", str(one),
+                      "--plate-from", str(tmp_path / "a"))) == 0
     by_hand = read_result(tmp_path / "b" / "S1" / "Walking_1.h5")
-    passes = read_result(tmp_path / "c" / "S1" / "Walking_1.h5")
-    first = read_result(tmp_path / "c" / "S1" / "pass1" / "Walking_1.h5")
+    passes = read_result(run / "S1" / "Walking_1.h5")
+    first = read_result(run / "S1" / "pass1" / "Walking_1.h5")
     assert np.array_equal(first.state, read_result(tmp_path / "a" / "S1" /
                                                    "Walking_1.h5").state)
     assert np.array_equal(passes.state, by_hand.state)
-    assert passes.attrs["plate_from"] == str((tmp_path / "c" / "S1" / "pass1" /
-                                              "Walking_1.h5").resolve())
+    assert passes.observed.all() and len(passes) == 10           # the person in every frame
+    assert passes.attrs["plate_from"] == str((run / "S1" / "pass1" / "Walking_1.h5").resolve())
     assert "silhouette = 10.0" in passes.attrs["config"]
     assert first.attrs["plate_from"] == "" and "silhouette = 10.0" not in first.attrs["config"]
+    # --all counts the two-pass result as done (it records the final pass's config)
+    from voxelmocap.batch import result_is_done
+    from voxelmocap.config import config_to_toml
+
+    config = config_to_toml(SMALL)
+    path = run / "S1" / "Walking_1.h5"
+    assert result_is_done(path, config, 0)
+    assert not result_is_done(path, config, 1)
+    assert not result_is_done(path, config, 0, cues_given=True)     # voxel alone was chosen
 
 
-def test_passes_resume_and_refuse_like_one_run(no_plate, tmp_path, capsys):
-    """A finished first pass is not tracked again by ``--resume``; an existing result is
-    refused before any pass runs."""
+def test_passes_resume_and_refuse_like_one_run(long_walk, tmp_path, capsys):
+    """``--resume`` re-reads finished passes (nothing tracked again) and resumes the one that
+    was interrupted; an existing final result is refused before any pass runs."""
     import os
 
-    data, _ = no_plate
-    out = tmp_path / "run"
-    args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
-            "--particles", "60", "--frames", "1:3", "--no-progress", "--out", str(out)]
+    data, _ = long_walk
+    out = tmp_path / "run"        # its own run: a result records its pass 1 by absolute path
+    args = _args(data, "--out", str(out))
     assert main(args) == 0
     first = out / "S1" / "pass1" / "Walking_1.h5"
     final = out / "S1" / "Walking_1.h5"
-    stamp = os.stat(first).st_mtime_ns
+    stamps = [os.stat(p).st_mtime_ns for p in (first, final)]
     states = read_result(final).state
-    final.unlink()                               # the final pass interrupted before a frame
     capsys.readouterr()
+    assert main(args + ["--resume"]) == 0                        # both complete: read only
+    assert capsys.readouterr().out.count("already complete") == 2
+    assert [os.stat(p).st_mtime_ns for p in (first, final)] == stamps
+    final.unlink()                               # the final pass interrupted before a frame
     assert main(args + ["--resume"]) == 0
-    assert "already complete" in capsys.readouterr().out
-    assert os.stat(first).st_mtime_ns == stamp
+    assert os.stat(first).st_mtime_ns == stamps[0]
     assert np.array_equal(read_result(final).state, states)
     first.unlink()
+    capsys.readouterr()
     assert main(args) == 2                       # exists: refused before the first pass
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "result exists" in err[0] and str(final) in err[0], err
     assert not first.exists()
+
+
+def test_a_pass_that_saw_the_person_too_rarely_is_repeated(long_walk, tmp_path, capsys,
+                                                          monkeypatch):
+    """A first pass with the person in fewer than MIN_BODY_FRAMES frames gives no plate from
+    its body: the last pass tracks as the first did, and says why."""
+    import voxelmocap.pipeline as pipeline
+
+    data, run = long_walk
+    out = tmp_path / "run"
+    shutil.copytree(run, out)
+    (out / "S1" / "Walking_1.h5").unlink()       # pass 1 kept (read again), the last re-run
+    monkeypatch.setattr(pipeline, "_frames_with_person", lambda path: 3)
+    assert main(_args(data, "--out", str(out), "--resume")) == 0
+    assert "saw the person in 3 frame(s)" in capsys.readouterr().out
+    final = read_result(out / "S1" / "Walking_1.h5")
+    first = read_result(out / "S1" / "pass1" / "Walking_1.h5")
+    assert final.attrs["plate_from"] == "" and final.attrs["config"] == first.attrs["config"]
+    assert np.array_equal(final.state, first.state)
+
+
+def test_short_runs_take_one_pass(no_plate, tmp_path):
+    """Fewer frames than MIN_BODY_FRAMES: one pass, the plate by carving."""
+    data, _ = no_plate
+    out = tmp_path / "run"
+    assert main(["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers",
+                 "2", "--particles", "60", "--frames", "1:4", "--no-progress", "--out",
+                 str(out)]) == 0
+    assert not (out / "S1" / "pass1").exists()
+    assert read_result(out / "S1" / "Walking_1.h5").attrs["plate_from"] == ""
 
 
 def test_dump_measures_with_the_plate_from_a_run(no_plate, tmp_path):

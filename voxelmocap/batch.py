@@ -25,7 +25,7 @@ import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .config import TrackConfig, config_to_toml
+from .config import TrackConfig, config_from_toml, config_to_toml
 from .errors import InputError
 from .logs import emit, run_started
 
@@ -88,11 +88,14 @@ def dataset_items(dataset_root) -> list[BatchItem]:
     return items
 
 
-def result_is_done(path, config_toml: str, seed: int) -> bool:
+def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) -> bool:
     """Whether ``path`` is a complete result of this configuration and seed.
 
     A complete result of other settings is not "done": tracking it again is refused by
-    :func:`~voxelmocap.pipeline.track_sequence` with the reason (unless ``overwrite``).
+    :func:`~voxelmocap.pipeline.track_sequence` with the reason (unless ``overwrite``). The
+    last of several tracking passes records the config it tracked with
+    (:func:`voxelmocap.passes.final_config`: the silhouette cue added), which counts as this
+    one (``cues_given``: the cues were chosen, as ``track --cues``).
     """
     from .io.results import read_result
 
@@ -104,18 +107,26 @@ def result_is_done(path, config_toml: str, seed: int) -> bool:
     except InputError:  # unreadable, being written, older format: let the task say why
         return False
     attrs = result.attrs
-    return bool(attrs.get("complete")) and str(attrs.get("config")) == config_toml \
-        and str(attrs.get("seed")) == str(int(seed))
+    if not (attrs.get("complete") and str(attrs.get("seed")) == str(int(seed))):
+        return False
+    if str(attrs.get("config")) == config_toml:
+        return True
+    if not str(attrs.get("plate_from", "")):
+        return False
+    from .passes import final_config
+
+    final = final_config(config_from_toml(config_toml), cues_given)[0]
+    return str(attrs.get("config")) == config_to_toml(final)
 
 
 def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None, cameras=None,
-               seed: int = 0, overwrite: bool = False, progress: bool = False) -> dict:
+               seed: int = 0, overwrite: bool = False, progress: bool = False,
+               cues_given: bool = False) -> dict:
     """Track one item (runs in a Dask worker or here); a short description of its result.
 
     The run's messages are appended to ``RUN/voxelmocap.log``, each prefixed with the item's
     key (in a Dask worker; in the command's own process its run log already holds them).
     """
-    from .config import config_from_toml
     from .logs import task_log
     from .pipeline import track_sequence
 
@@ -123,7 +134,8 @@ def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None,
         outcome = track_sequence(dataset, item.subject, item.sequence, out_dir,
                                  config=config_from_toml(config_toml), frames=frames,
                                  cameras=cameras, seed=seed, resume=not overwrite,
-                                 overwrite=overwrite, progress=progress)
+                                 overwrite=overwrite, progress=progress,
+                                 cues_given=cues_given)
     return {"result": str(outcome.result_path), "frames": len(outcome.frames),
             "seconds_per_frame": outcome.seconds_per_frame,
             "resumed_from": outcome.resumed_from}
@@ -132,7 +144,7 @@ def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None,
 def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=None,
               cameras=None, seed: int = 0, overwrite: bool = False, scheduler: str | None = None,
               n_workers: int | None = None, progress: bool = True, items=None,
-              log=None) -> BatchSummary:
+              log=None, cues_given: bool = False) -> BatchSummary:
     """Track every item (default: :func:`dataset_items`) into ``out_dir``; what happened.
 
     Parameters
@@ -162,6 +174,8 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
         The sequences (default: every sequence with videos in ``dataset``).
     log : callable, optional
         Also receives the ``voxelmocap.batch`` logger's messages.
+    cues_given : bool
+        The cues were chosen (``track --all --cues``): a later tracking pass keeps them.
     """
     from .io._atomic import ensure_output_dir
     from .tasks import run_tasks
@@ -176,7 +190,8 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
     summary = BatchSummary()
     todo = []
     for item in items:
-        if not overwrite and result_is_done(item.result_path(out_dir), config_toml, seed):
+        if not overwrite and result_is_done(item.result_path(out_dir), config_toml, seed,
+                                            cues_given):
             summary.skipped.append(item.key)
         else:
             todo.append(item)
@@ -188,7 +203,7 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
     root, out = str(Path(dataset).resolve()), str(out_dir.resolve())
     tasks = [(f"track-{item.subject}-{item.sequence}", track_item,
               (item, root, out, config_toml, frames, cameras, seed, overwrite,
-               progress and here)) for item in todo]
+               progress and here, cues_given)) for item in todo]
     by_key = {task[0]: item for task, item in zip(tasks, todo, strict=True)}
 
     def finished(outcome) -> None:  # as each sequence ends, not when all have

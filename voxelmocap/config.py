@@ -144,7 +144,8 @@ class SilhouetteConfig:
     #: IoU 0.797 / 0.801 / 0.790 / 0.775 / 0.750: a wider cover leaves more pixels never seen
     plate_body_margin: float = 20.0
     #: learnt plate from a tracked body: a pixel the body left free in fewer than this share of
-    #: the sampled frames is unknown (GrabCut decides it per frame): where the person nearly
+    #: the sampled frames (rounded to a count, at least ``plate_min_seen``) is unknown (GrabCut
+    #: decides it per frame): where the person nearly
     #: always is, a few frames the body missed the person in can outvote the background. On the
     #: Pose2Sim demo (pass 2 from seed 0's pass 1, MediaPipe's masks as the reference) 0 (one
     #: frame) / 0.1 / 0.17 / 0.25 / 0.37 gave silhouette IoU 0.769 / 0.781 / 0.788 / 0.789 /

@@ -112,8 +112,21 @@ logger = logging.getLogger(__name__)
 
 
 def learns_plate(seq, silhouette) -> bool:
-    """Whether a run learns a background plate from the sequence itself: a camera has no
-    background video and ``silhouette.method`` is ``gaussian`` or ``plate`` (not ``mog2``)."""
+    """Whether a run learns a background plate from the sequence itself.
+
+    Parameters
+    ----------
+    seq : Sequence
+        Its cameras' background videos (``background_paths``).
+    silhouette : SilhouetteConfig
+        ``method``.
+
+    Returns
+    -------
+    bool
+        A camera has no background video and ``method`` is ``gaussian`` or ``plate`` (not
+        ``mog2``).
+    """
     return (silhouette.method in ("gaussian", "plate")
             and any(not seq.background_paths(c) for c in seq.camera_names))
 
@@ -209,7 +222,7 @@ class MeasurementRunner(MeasurementStage):
                            int(round(silhouette.plate_body_min_seen * len(numbers))))
                 plates = plates_from_covers(samples, plain, plate_covers_of(
                     plain, plate_body.model, states, silhouette.plate_body_margin),
-                    dataclasses.replace(silhouette, plate_min_seen=max(1, seen)))
+                    dataclasses.replace(silhouette, plate_min_seen=seen))
                 how = f"the person where the body of {plate_body.source} was"
             else:
                 samples = self._sample_frames(seq, silhouette.plate_frames)
@@ -447,7 +460,7 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
                   config: TrackConfig | None = None, frames: str | None = None, cameras=None,
                   masks: bool = False, ply_dir=None, ply_points: bool = False,
                   progress: bool = True, log=None, trial: str | None = None,
-                  plate_from=None) -> DumpOutcome:
+                  plate_body=None) -> DumpOutcome:
     """Measure the frames of one sequence and write every volume to a voxel dump.
 
     Parameters
@@ -477,10 +490,11 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     trial : str, optional
         Project trial (a Pose2Sim / anipose / EasyMocap project, :func:`~voxelmocap.io.sequence.
         open_sequence`; default its only trial).
-    plate_from : str or os.PathLike, optional
-        A run of this sequence (its folder or result file): the plate learnt from the sequence
-        takes its body for the person, as ``track --plate-from`` and a final tracking pass do
-        (:func:`voxelmocap.pipeline.tracked_body`), so the dump shows what that pass measured.
+    plate_body : voxelmocap.body_cover.TrackedBody, optional
+        A run's body in this sequence (:func:`voxelmocap.pipeline.tracked_body`, which
+        ``dump --plate-from`` reads): the plate learnt from the sequence takes it for the person,
+        as ``track --plate-from`` and a final tracking pass do, so the dump shows what that pass
+        measured.
 
     Returns
     -------
@@ -513,11 +527,6 @@ def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
     if len(selected) == 0:
         raise InputError(f"{seq.subject}/{seq.name}", "no frames to dump")
 
-    plate_body = None
-    if plate_from is not None:
-        from .pipeline import tracked_body
-
-        plate_body = tracked_body(plate_from, seq, seq.ground_truth())
     runner = MeasurementRunner(seq, config, log=log, plate_body=plate_body)
     grid = runner.grid
     emit(logger, log, f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "

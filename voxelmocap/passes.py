@@ -16,7 +16,13 @@ Pure: no file is touched here.
 
 from __future__ import annotations
 
-__all__ = ["MASKS_CUES", "MASKS_MAX_HULL", "masks_defaults", "pass_folder", "plate_passes"]
+__all__ = ["MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES", "final_config", "masks_defaults",
+           "pass_folder", "plate_passes"]
+
+#: Fewest frames with the person a pass must track for the next pass to learn its plate from
+#: its body (the plate is the median of those frames around the body): on the rendered 8-frame
+#: walk the final pass, learning from 3–8 frames, lost the person in 3 of 4 and 4 of 8 frames.
+MIN_BODY_FRAMES = 10
 
 #: With ``--masks``: the cues and the limb sweep's hull gate used unless chosen otherwise. On
 #: the Pose2Sim demo with MediaPipe's masks, the voxel cue alone with the gate at 2 tracked to
@@ -31,9 +37,26 @@ MASKS_MAX_HULL = 1000.0
 
 def masks_defaults(config, cues_given: bool, *, why: str = "given person masks",
                    gate: bool = True):
-    """``config`` with :data:`MASKS_CUES` (unless ``--cues`` was given or the config chose
-    other cues) and, with ``gate``, :data:`MASKS_MAX_HULL` (unless the config set the gate),
-    and the message saying so, starting with ``why`` (None when nothing changed)."""
+    """The cues (and gate) a run with good silhouettes uses unless chosen otherwise.
+
+    Parameters
+    ----------
+    config : TrackConfig
+    cues_given : bool
+        The cues were chosen on the command line (``--cues``): they are kept.
+    why : str
+        How the message starts.
+    gate : bool
+        Also open the limb sweep's hull gate (given masks; not a plate from a body).
+
+    Returns
+    -------
+    config : TrackConfig
+        ``config`` with :data:`MASKS_CUES` (unless ``cues_given`` or the config chose other
+        cues) and, with ``gate``, :data:`MASKS_MAX_HULL` (unless the config set the gate).
+    message : str or None
+        What changed, starting with ``why`` (None when nothing did).
+    """
     import dataclasses
 
     from .config import TrackConfig, with_overrides
@@ -54,18 +77,25 @@ def masks_defaults(config, cues_given: bool, *, why: str = "given person masks",
                     "--cues or the config file choose otherwise)")
 
 
+def final_config(config, cues_given: bool = False):
+    """The config a pass that learns its plate from a body tracks with (and records): the
+    silhouette cue added (:func:`masks_defaults` without the gate), and the message."""
+    return masks_defaults(config, cues_given, gate=False, why="a plate from a tracked body")
+
+
 def plate_passes(seq, config, *, masks=None, plate_from=None, n_frames: int) -> int:
     """How many tracking passes a run of ``seq`` takes.
 
     ``config.measurement.silhouette.plate_passes`` when the run learns its background plate
     from the sequence (:func:`voxelmocap.measurement_runner.learns_plate`) by carving — no
-    masks, no ``plate_from`` — and tracks at least 2 frames (a plate from a body needs two);
-    else 1.
+    masks, no ``plate_from`` — and tracks at least :data:`MIN_BODY_FRAMES` frames; else 1.
 
     Parameters
     ----------
     seq : Sequence
+        The sequence (its cameras' background videos).
     config : TrackConfig
+        Its ``measurement.silhouette`` (method, ``plate_passes``).
     masks, plate_from : optional
         The run's ``--masks`` and ``--plate-from`` (either makes it one pass).
     n_frames : int
@@ -77,7 +107,7 @@ def plate_passes(seq, config, *, masks=None, plate_from=None, n_frames: int) -> 
     """
     from .measurement_runner import learns_plate
 
-    if masks is not None or plate_from is not None or n_frames < 2:
+    if masks is not None or plate_from is not None or n_frames < MIN_BODY_FRAMES:
         return 1
     if not learns_plate(seq, config.measurement.silhouette):
         return 1

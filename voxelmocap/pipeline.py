@@ -177,7 +177,8 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         Frame rate (Hz) of the BVH and the result file; default the sequence's own
         (``Sequence.frame_rate``: the video metadata, else HumanEva-I's 60 Hz).
     recorder : object, optional
-        Sees the run as it goes (e.g. :class:`voxelmocap.viz.rerun_recording.RerunRecorder`):
+        Sees the run (its last tracking pass) as it goes (e.g.
+        :class:`voxelmocap.viz.rerun_recording.RerunRecorder`):
         ``recorder.start(seq, grid)`` once the measurement stage is built,
         ``recorder.observe(frame, images, observation)`` after each frame is measured, and
         ``recorder(record, tracker)`` for every frame tracked (a tracker observer; ``tracker``
@@ -201,7 +202,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     """
     from .io.masks import PersonMasks
     from .io.sequence import open_sequence
-    from .passes import masks_defaults, pass_folder, plate_passes
+    from .passes import MIN_BODY_FRAMES, final_config, masks_defaults, pass_folder, plate_passes
 
     def say(message: str, level: int = logging.INFO) -> None:
         emit(logger, log, message, level)
@@ -221,8 +222,7 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     selected = _select_frames(seq, gt, frames)
     passes = plate_passes(seq, config, masks=masks, plate_from=plate_from,
                           n_frames=len(selected))
-    body_config, message = masks_defaults(config, cues_given, gate=False,
-                                          why="a plate from a tracked body")
+    body_config, message = final_config(config, cues_given)
     if masks is not None:
         config, message = masks_defaults(config, cues_given)
     elif plate_from is not None:
@@ -242,31 +242,33 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     say(f"{passes} tracking passes (measurement.silhouette.plate_passes): the first learns the "
         "background plate by carving, each later one from the body the pass before tracked"
         + (f"; {message}" if message else ""))
-    # Resuming a final pass that has begun: the passes before it are complete (or it was not
-    # made by these passes: refused now, as the final pass would, before tracking them again).
-    skip = resume and final.exists()
-    if skip:
-        from .io.results import read_result
-
-        before = _result_paths(Path(out_dir), seq, pass_folder(passes - 1))[0]
-        if str(read_result(final).attrs.get("plate_from", "")) != str(before.resolve()):
-            raise InputError(final, "cannot resume: its plate_from differs from this run's "
-                                    "(use --overwrite to start again)")
-    previous = None
+    # Every pass runs with the run's resume/overwrite: resuming, a complete pass only reads its
+    # file; the passes are deterministic for a seed, so a pass tracked again is the same pass.
+    previous, pass_config = None, config
     for k in range(1, passes):
-        folder = pass_folder(k)
-        if skip:
-            previous = _result_paths(Path(out_dir), seq, folder)[0]
-            continue
-        say(f"tracking pass {k} of {passes} → {_result_paths(Path(out_dir), seq, folder)[0]}")
-        previous = _track_pass(seq, out_dir, folder=folder,
-                               config=config if k == 1 else body_config, resume=resume,
-                               overwrite=overwrite, recorder=None, masks=None,
-                               person_masks=None, plate_from=previous, **common).result_path
+        path = _result_paths(Path(out_dir), seq, pass_folder(k))[0]
+        say(f"tracking pass {k} of {passes} → {path}")
+        _track_pass(seq, out_dir, folder=pass_folder(k), config=pass_config, resume=resume,
+                    overwrite=overwrite, recorder=None, masks=None, person_masks=None,
+                    plate_from=previous, **common)
+        seen = _frames_with_person(path)
+        if seen < MIN_BODY_FRAMES:
+            say(f"warning: pass {k} saw the person in {seen} frame(s), fewer than the "
+                f"{MIN_BODY_FRAMES} a plate from its body needs: the last pass tracks as it did")
+            break
+        previous, pass_config = path, body_config
     say(f"tracking pass {passes} of {passes} → {final}")
-    return _track_pass(seq, out_dir, config=body_config, resume=resume, overwrite=overwrite,
+    return _track_pass(seq, out_dir, config=pass_config, resume=resume, overwrite=overwrite,
                        recorder=recorder, masks=None, person_masks=None, plate_from=previous,
                        **common)
+
+
+def _frames_with_person(path) -> int:
+    """How many frames of a result saw the person (not flagged absent)."""
+    from .io.results import read_result
+
+    result = read_result(path)
+    return len(result) if result.observed is None else int(np.count_nonzero(result.observed))
 
 
 def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resume, overwrite,

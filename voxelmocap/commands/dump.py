@@ -43,8 +43,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--plate-from", metavar="RUN",
                         help="without background videos: learn the plate with the body RUN "
                              "tracked (a run folder, a pass folder or a .h5), as track's final "
-                             "pass does: give a two-pass run's RUN/<trial>/pass1 to see what "
-                             "its final pass measured")
+                             "pass does: give a two-pass run's RUN/<subject>/pass1 (a "
+                             "project: RUN/<trial>/pass1) to see what its final pass measured")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.set_defaults(run=run, log_folder=_log_folder)
 
@@ -71,10 +71,17 @@ def run(args: argparse.Namespace) -> int:
     from ..measurement_runner import dump_sequence
 
     cameras = [c.strip() for c in args.cameras.split(",") if c.strip()] if args.cameras else None
+    plate_body = None
+    if args.plate_from:
+        from ..io.sequence import open_sequence
+        from ..pipeline import tracked_body
+
+        seq = open_sequence(args.dataset, args.subject, args.sequence, cameras=cameras)
+        plate_body = tracked_body(args.plate_from, seq, seq.ground_truth())
     outcome = dump_sequence(args.dataset, args.subject, args.sequence, args.out,
                             config=_config(args), frames=args.frames, cameras=cameras,
                             masks=args.masks, ply_dir=args.ply, ply_points=args.ply_points,
-                            progress=not args.no_progress, plate_from=args.plate_from)
+                            progress=not args.no_progress, plate_body=plate_body)
     per_frame = ", ".join(f"{k} {1000 * v:.1f}" for k, v in outcome.seconds_per_frame.items())
     logger.info(f"wrote {outcome.path} ({len(outcome.frames)} frames); ms per frame: {per_frame}")
     if outcome.ply_dir is not None:

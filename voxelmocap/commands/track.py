@@ -178,7 +178,7 @@ def _run_all(args: argparse.Namespace) -> int:
     summary = run_batch(args.dataset, args.out, config=resolve_config(args), frames=args.frames,
                         cameras=cameras, seed=args.seed, overwrite=args.overwrite,
                         scheduler=args.scheduler, n_workers=args.workers,
-                        progress=not args.no_progress)
+                        progress=not args.no_progress, cues_given=bool(args.cues))
     logger.info(f"summary: {summary.describe()}")
     for key in summary.done:
         logger.info(f"  done:    {key}")
