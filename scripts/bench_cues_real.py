@@ -86,14 +86,16 @@ def run(demo, out, name, *, layers, particles, seed, frames, replay, hier=None):
                                               "filter.particles": particles,
                                               "filter.search": search,
                                               "export.formats": [],
+                                              # one pass: the cues' cost on one plate's frames
+                                              "measurement.silhouette.plate_passes": 1,
                                               **((hier or {}) if search == "hierarchical"
                                                  else {})})
     config = dataclasses.replace(config, cues=CuesConfig(weights=dict(SETTINGS[name])))
     real_runner = pipeline.MeasurementRunner
 
-    def runner(seq, cfg, log=None):
+    def runner(seq, cfg, log=None, **options):
         if "r" not in replay:
-            replay["r"] = _Replay(real_runner(seq, cfg, log=log))
+            replay["r"] = _Replay(real_runner(seq, cfg, log=log, **options))
         return replay["r"]
 
     costs = _Costs()
