@@ -145,8 +145,8 @@ class SilhouetteConfig:
     plate_body_margin: float = 20.0
     #: learnt plate from a tracked body: a pixel the body left free in fewer than this share of
     #: the sampled frames (rounded to a count, at least ``plate_min_seen``) is unknown (GrabCut
-    #: decides it per frame): where the person nearly
-    #: always is, a few frames the body missed the person in can outvote the background. On the
+    #: decides it per frame): where the person nearly always is, a few frames the body missed
+    #: the person in can outvote the background. On the
     #: Pose2Sim demo (pass 2 from seed 0's pass 1, MediaPipe's masks as the reference) 0 (one
     #: frame) / 0.1 / 0.17 / 0.25 / 0.37 gave silhouette IoU 0.769 / 0.781 / 0.788 / 0.789 /
     #: 0.786, but 0.2 tracked seeds 0 / 1 / 2 to 71 / 428 / 117 mm against 130 / 102 / 107 mm

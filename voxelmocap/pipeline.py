@@ -222,12 +222,13 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     selected = _select_frames(seq, gt, frames)
     passes = plate_passes(seq, config, masks=masks, plate_from=plate_from,
                           n_frames=len(selected))
-    body_config, message = final_config(config, cues_given)
+    body_config, body_message = final_config(config, cues_given)
+    message = None
     if masks is not None:
         config, message = masks_defaults(config, cues_given)
     elif plate_from is not None:
-        config = body_config
-    if message and (masks is not None or plate_from is not None):
+        config, message = body_config, body_message
+    if message:
         say(f"note: {message}")
     common = dict(dataset_root=dataset_root, gt=gt, selected=selected, seed=seed,
                   progress=progress, log=log, fps=fps, say=say)
@@ -241,14 +242,15 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
                                 "replace it")
     say(f"{passes} tracking passes (measurement.silhouette.plate_passes): the first learns the "
         "background plate by carving, each later one from the body the pass before tracked"
-        + (f"; {message}" if message else ""))
+        + (f"; {body_message}" if body_message else ""))
     # Every pass runs with the run's resume/overwrite: resuming, a complete pass only reads its
     # file; the passes are deterministic for a seed, so a pass tracked again is the same pass.
     previous, pass_config = None, config
     for k in range(1, passes):
-        path = _result_paths(Path(out_dir), seq, pass_folder(k))[0]
+        folder = pass_folder(k)
+        path = _result_paths(Path(out_dir), seq, folder)[0]
         say(f"tracking pass {k} of {passes} → {path}")
-        _track_pass(seq, out_dir, folder=pass_folder(k), config=pass_config, resume=resume,
+        _track_pass(seq, out_dir, folder=folder, config=pass_config, resume=resume,
                     overwrite=overwrite, recorder=None, masks=None, person_masks=None,
                     plate_from=previous, **common)
         seen = _frames_with_person(path)
