@@ -280,6 +280,31 @@ def test_passes_resume_and_refuse_like_one_run(long_walk, tmp_path, capsys):
     assert not first.exists()
 
 
+def test_a_final_result_another_run_writes_is_refused_before_the_passes(long_walk, tmp_path,
+                                                                         capsys):
+    """With ``--overwrite`` too: a final result held by a running writer (its exclusive flock,
+    here taken by this test) is refused at once, pass 1 left as it was."""
+    import fcntl
+    import os
+
+    data, run = long_walk
+    out = tmp_path / "run"
+    shutil.copytree(run, out)
+    first, final = out / "S1" / "pass1" / "Walking_1.h5", out / "S1" / "Walking_1.h5"
+    stamp = os.stat(first).st_mtime_ns
+    fd = os.open(final, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        capsys.readouterr()
+        assert main(_args(data, "--out", str(out), "--overwrite")) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "another track run is writing" in err[0], err
+        assert str(final) in err[0]
+    finally:
+        os.close(fd)
+    assert os.stat(first).st_mtime_ns == stamp
+
+
 def test_a_pass_that_saw_the_person_too_rarely_is_repeated(long_walk, tmp_path, capsys,
                                                           monkeypatch):
     """A first pass with the person in fewer than MIN_BODY_FRAMES frames gives no plate from

@@ -240,6 +240,10 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
     if final.exists() and not (resume or overwrite):  # refused now, not after the first passes
         raise InputError(final, "result exists; use --resume to continue it or --overwrite to "
                                 "replace it")
+    if final.exists():  # ... and so is a final result another run is writing
+        from .io.results import check_not_being_written
+
+        check_not_being_written(final)
     say(f"{passes} tracking passes (measurement.silhouette.plate_passes): the first learns the "
         "background plate by carving, each later one from the body the pass before tracked"
         + (f"; {body_message}" if body_message else ""))

@@ -67,8 +67,8 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "PER_FRAME", "ResultWriter", "TrackResult", "read_result",
-           "write_result"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "PER_FRAME", "ResultWriter", "TrackResult",
+           "check_not_being_written", "read_result", "write_result"]
 
 FORMAT = "voxelmocap tracking result"
 FORMAT_VERSION = 3
@@ -222,6 +222,22 @@ def _try_lock(path: Path) -> int | None:
 def _busy(path) -> InputError:
     return InputError(path, "another track run is writing this result; wait for it to finish "
                             "or choose another --out")
+
+
+def check_not_being_written(path) -> None:
+    """Raise the busy error when a running :class:`ResultWriter` holds ``path``.
+
+    A run that tracks passes before its final result asks this first, so a result another
+    run is writing is refused before the passes, not after them. It is a courtesy, not the
+    guard: the final pass's own writer still takes the lock.
+
+    Raises
+    ------
+    InputError
+        "another track run is writing this result …".
+    """
+    if _being_written(Path(path)):
+        raise _busy(path)
 
 
 def _utc_now() -> str:
