@@ -371,6 +371,14 @@ def diagnose(args) -> None:
         lms = model.forward(states).joints[:, scored]
         err = np.linalg.norm(lms - target[scored], axis=2)            # (2, 14)
         observation = runner.measure(images, frame=int(number))
+        if args.refine:
+            # both poses climbed to the nearest optimum of the same score: a fitted pose that
+            # stays near the reference and then outscores the estimate means the search missed
+            # it; one that drifts away or stays below means the likelihood prefers another pose
+            states = np.stack([_refined(tracker, observation, model, x, args.refine)
+                               for x in states])
+            lms = model.forward(states).joints[:, scored]
+            err = np.linalg.norm(lms - target[scored], axis=2)
         with tracker._paper_likelihood():
             parts = tracker.cues.evaluate(observation, states)
         total = sum(w * parts[n] for n, w in zip(tracker.cues.names, tracker.cues.weights,
@@ -389,6 +397,21 @@ def diagnose(args) -> None:
           f"within 100 mm); the body fitted to the reference {fit.mean():.0f} mm "
           f"({100 * np.mean(fit <= 100):.0f} % within 100 mm); the fitted pose scores at least as "
           f"well as the estimate in {better:.0f}/{len(out)} frames")
+
+
+def _refined(tracker, observation, model, x, evaluations: int) -> np.ndarray:
+    """``x`` improved by compass search over all 27 parameters on the score ``diagnose``
+    reports (the run's cues, paper 002's voxel likelihood without the coverage term)."""
+    from voxelmocap.tracking.refine import pattern_search
+
+    def ll(states):
+        with tracker._paper_likelihood():
+            return tracker.cues.log_likelihood(observation, model.clip(states))
+
+    steps = np.where(np.arange(model.n_dims) < 3, 20.0, 0.05)      # mm for the root, else rad
+    best, _, _ = pattern_search(ll, model.clip(x[None])[0], np.arange(model.n_dims), steps,
+                                low=model.low, high=model.high, max_evaluations=evaluations)
+    return best
 
 
 # ---------------------------------------------------------------------- diagnostic
@@ -471,6 +494,9 @@ def main(argv=None) -> int:
             p.add_argument("--every", type=int, default=5, help="every EVERY-th tracked frame")
             p.add_argument("--mediapipe-masks", action="store_true",
                            help="score on MediaPipe's masks instead of the run's silhouettes")
+            p.add_argument("--refine", type=int, default=0, metavar="N",
+                           help="first climb both poses by compass search (N evaluations "
+                                "each) on the score reported")
             p.add_argument("--unseen", choices=("ignore", "count"),
                            help="[cues] silhouette_unseen for the scoring (default: the run's; "
                                 "runs older than the key read as the default, count)")
