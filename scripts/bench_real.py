@@ -233,6 +233,8 @@ def _result(run: Path):
     from voxelmocap.io.reports import find_result_files
     from voxelmocap.io.results import read_result
 
+    if run.suffix == ".h5":                     # a result file, e.g. RUN/<trial>/pass1/<trial>.h5
+        return run, read_result(run)
     files = [p for p in find_result_files(run) if p.suffix == ".h5"]
     if len(files) != 1:
         raise SystemExit(f"{run}: expected one result file, found {len(files)}")
