@@ -99,55 +99,86 @@ def cover_counts(points, valid, mask, hit, extra):
     """
     n_p, n_parts, n_k = points.shape[0], points.shape[1], points.shape[2]
     h, w = mask.shape
+    # Row prefix sums of the mask (shared by every particle): a row's union of the parts' spans
+    # is counted per span, not per pixel
+    csum = np.zeros((h, w + 1), np.int64)
+    for i in range(h):
+        acc = 0
+        for j in range(w):
+            if mask[i, j]:
+                acc += 1
+            csum[i, j + 1] = acc
     for p in prange(n_p):
         order = np.empty(n_k, np.int64)
         hx = np.empty((n_parts, 2 * n_k), np.float64)
         hy = np.empty((n_parts, 2 * n_k), np.float64)
         m = np.zeros(n_parts, np.int64)
+        q_lo = np.empty(n_parts, np.int64)
+        q_hi = np.empty(n_parts, np.int64)
+        span_lo = np.empty(n_parts, np.int64)
+        span_hi = np.empty(n_parts, np.int64)
         r0, r1, c0, c1 = h, -1, w, -1
         for q in range(n_parts):
+            q_lo[q], q_hi[q] = h, -1
             if not valid[p, q]:
                 continue
             m[q] = _convex_hull(points[p, q, :, 0], points[p, q, :, 1], n_k, order, hx[q], hy[q])
             for v in range(m[q]):
-                r0 = min(r0, int(np.ceil(hy[q, v])))
-                r1 = max(r1, int(np.floor(hy[q, v])))
+                q_lo[q] = min(q_lo[q], int(np.ceil(hy[q, v])))
+                q_hi[q] = max(q_hi[q], int(np.floor(hy[q, v])))
                 c0 = min(c0, int(np.ceil(hx[q, v])))
                 c1 = max(c1, int(np.floor(hx[q, v])))
+            r0, r1 = min(r0, q_lo[q]), max(r1, q_hi[q])
         r0, r1, c0, c1 = max(r0, 0), min(r1, h - 1), max(c0, 0), min(c1, w - 1)
-        hit[p] = 0
-        extra[p] = 0
-        if r1 < r0 or c1 < c0:
-            continue
-        drawn = np.zeros((r1 - r0 + 1, c1 - c0 + 1), np.bool_)
-        for q in range(n_parts):
-            nv = m[q]
-            if nv < 3:
-                continue
+        n_hit = 0
+        n_extra = 0
+        if r1 >= r0 and c1 >= c0:
             for i in range(r0, r1 + 1):
                 y = float(i)
-                lo, hi = np.inf, -np.inf
-                for v in range(nv):  # the row's crossings of the hull's edges
-                    ax, ay = hx[q, v], hy[q, v]
-                    bx, by = hx[q, (v + 1) % nv], hy[q, (v + 1) % nv]
-                    if (ay <= y <= by) or (by <= y <= ay):
-                        if ay == by:
-                            lo, hi = min(lo, ax, bx), max(hi, ax, bx)
-                        else:
-                            x = ax + (bx - ax) * (y - ay) / (by - ay)
-                            lo, hi = min(lo, x), max(hi, x)
-                if hi < lo:
-                    continue
-                j0, j1 = max(int(np.ceil(lo)), c0), min(int(np.floor(hi)), c1)
-                for j in range(j0, j1 + 1):
-                    drawn[i - r0, j - c0] = True
-        for i in range(r0, r1 + 1):
-            for j in range(c0, c1 + 1):
-                if drawn[i - r0, j - c0]:
-                    if mask[i, j]:
-                        hit[p] += 1
-                    else:
-                        extra[p] += 1
+                k = 0
+                for q in range(n_parts):
+                    nv = m[q]
+                    if nv < 3 or i < q_lo[q] or i > q_hi[q]:
+                        continue
+                    lo, hi = np.inf, -np.inf
+                    for v in range(nv):  # the row's crossings of the hull's edges
+                        ax, ay = hx[q, v], hy[q, v]
+                        bx, by = hx[q, (v + 1) % nv], hy[q, (v + 1) % nv]
+                        if (ay <= y <= by) or (by <= y <= ay):
+                            if ay == by:
+                                lo, hi = min(lo, ax, bx), max(hi, ax, bx)
+                            else:
+                                x = ax + (bx - ax) * (y - ay) / (by - ay)
+                                lo, hi = min(lo, x), max(hi, x)
+                    if hi < lo:
+                        continue
+                    j0, j1 = max(int(np.ceil(lo)), c0), min(int(np.floor(hi)), c1)
+                    if j1 < j0:
+                        continue
+                    # insertion by start: at most n_parts spans a row
+                    t = k
+                    while t > 0 and span_lo[t - 1] > j0:
+                        span_lo[t], span_hi[t] = span_lo[t - 1], span_hi[t - 1]
+                        t -= 1
+                    span_lo[t], span_hi[t] = j0, j1
+                    k += 1
+                # the union of the spans, counted against the mask's prefix sums
+                a, b = 0, -1
+                for t in range(k):
+                    if span_lo[t] > b:
+                        if b >= a:
+                            inside = csum[i, b + 1] - csum[i, a]
+                            n_hit += inside
+                            n_extra += b - a + 1 - inside
+                        a, b = span_lo[t], span_hi[t]
+                    elif span_hi[t] > b:
+                        b = span_hi[t]
+                if b >= a:
+                    inside = csum[i, b + 1] - csum[i, a]
+                    n_hit += inside
+                    n_extra += b - a + 1 - inside
+        hit[p] = n_hit
+        extra[p] = n_extra
 
 
 @njit(cache=True, parallel=True)
