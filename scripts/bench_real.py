@@ -27,6 +27,10 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
 * ``diagnose RUN``: a diagnostic: the run's body fitted to the reference's landmarks (the
   metric's floor for that body) and scored by the run's own cues against the run's estimate —
   does the search miss a better pose, or does the likelihood prefer the wrong one?
+  ``--refine N`` first climbs both poses by compass search (N evaluations each) on that score,
+  so a fitted pose that is merely off an optimum is not blamed on the likelihood.
+
+``RUN`` may also be a result file, e.g. a first pass's ``RUN/<trial>/pass1/<trial>.h5``.
 
     python scripts/bench_real.py silhouettes --ref /work/p2s_ref
     python scripts/bench_real.py carving --ref /work/p2s_ref
@@ -34,7 +38,7 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
     python scripts/bench_real.py landmarks RUN --ref /work/p2s_ref
     python scripts/bench_real.py overlays RUN --out docs/images
     python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
-    python scripts/bench_real.py diagnose RUN --every 5 [--mediapipe-masks] [--unseen count]
+    python scripts/bench_real.py diagnose RUN --every 5 [--mediapipe-masks] [--unseen count] [--refine 400]
 """
 
 from __future__ import annotations
@@ -234,6 +238,8 @@ def _result(run: Path):
     from voxelmocap.io.results import read_result
 
     if run.suffix == ".h5":                     # a result file, e.g. RUN/<trial>/pass1/<trial>.h5
+        if not run.is_file():
+            raise SystemExit(f"{run}: no such result file")
         return run, read_result(run)
     files = [p for p in find_result_files(run) if p.suffix == ".h5"]
     if len(files) != 1:
@@ -510,6 +516,8 @@ def main(argv=None) -> int:
             p.add_argument("--cues", help="track --cues (default: the config's)")
             p.add_argument("--config", type=Path, help="track --config")
     args = ap.parse_args(argv)
+    if getattr(args, "refine", 0) < 0:
+        ap.error(f"--refine must be >= 0, got {args.refine}")
     {"silhouettes": silhouettes, "carving": carving, "landmarks": landmarks,
      "overlays": overlays, "oracle-track": oracle_track, "diagnose": diagnose}[args.what](args)
     return 0

@@ -78,6 +78,22 @@ def _convex_hull(xs, ys, n, order, hx, hy):
     return m - 1
 
 
+#: outline coordinates (mask pixels) beyond which a part is not drawn: a part grazing the
+#: lens projects to ~1e24 px under distortion, where converting to pixel indices overflows
+#: (``voxelmocap.cues.contours.body_mask`` skips such parts the same way)
+MAX_OUTLINE_PIXELS = 1e6
+
+
+@njit(cache=True)
+def _drawable(pts) -> bool:
+    """Whether every outline point ``(K, 2)`` is finite and within :data:`MAX_OUTLINE_PIXELS`."""
+    for k in range(pts.shape[0]):
+        for d in range(2):
+            if not abs(pts[k, d]) <= MAX_OUTLINE_PIXELS:    # also False for NaN
+                return False
+    return True
+
+
 @njit(cache=True, parallel=True)
 def cover_counts(points, valid, mask, hit, extra):
     """Pixels of a silhouette covered by the projected body, and body pixels outside it.
@@ -91,7 +107,8 @@ def cover_counts(points, valid, mask, hit, extra):
     points : (P, n_parts, K, 2) float64 ndarray
         Outline points ``(x, y)`` of every part in mask pixels.
     valid : (P, n_parts) bool ndarray
-        The part is wholly in front of the camera (others are not drawn).
+        The part is wholly in front of the camera (others are not drawn, nor is a part with an
+        outline point beyond :data:`MAX_OUTLINE_PIXELS` or not finite).
     mask : (H, W) bool ndarray
         The silhouette.
     hit, extra : (P,) int64 ndarray
@@ -120,7 +137,7 @@ def cover_counts(points, valid, mask, hit, extra):
         r0, r1, c0, c1 = h, -1, w, -1
         for q in range(n_parts):
             q_lo[q], q_hi[q] = h, -1
-            if not valid[p, q]:
+            if not valid[p, q] or not _drawable(points[p, q]):
                 continue
             m[q] = _convex_hull(points[p, q, :, 0], points[p, q, :, 1], n_k, order, hx[q], hy[q])
             for v in range(m[q]):

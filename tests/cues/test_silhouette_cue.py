@@ -51,6 +51,22 @@ def test_cover_counts_equal_brute_force(seed):
         assert extra[p] == (drawn & ~mask).sum()
 
 
+@pytest.mark.parametrize("far", [1e20, np.inf, -np.inf, np.nan])
+def test_a_part_projected_out_of_bounds_is_not_drawn(far):
+    """A part with an outline point beyond 1e6 px or not finite (a cone grazing the lens,
+    distorted) is left out, as ``body_mask`` leaves it out: the counts are those of the others
+    (converting such a coordinate to a pixel index would overflow)."""
+    rng = np.random.default_rng(9)
+    mask = rng.random((20, 20)) < 0.5
+    points = np.empty((1, 2, 3, 2))
+    points[0, 0] = [[10, 3], [12, 3], [11, far]]              # the sliver towards the far point
+    points[0, 1] = [[2, 2], [6, 2], [4, 15]]
+    hit, extra = np.empty(1, np.int64), np.empty(1, np.int64)
+    sk.cover_counts(points, np.ones((1, 2), bool), mask, hit, extra)
+    drawn = _drawn(points[0, 1:], np.ones(1, bool), 20, 20)
+    assert hit[0] == (drawn & mask).sum() and extra[0] == (drawn & ~mask).sum()
+
+
 def test_cover_counts_of_nothing_drawn_are_zero():
     mask = np.ones((10, 10), bool)
     points = np.full((2, 1, 4, 2), 100.0)           # all outside the picture
