@@ -20,8 +20,8 @@ import argparse
 import os
 import platform
 import time
+from types import SimpleNamespace
 
-import cv2
 import numba
 import numpy as np
 
@@ -29,6 +29,7 @@ from voxelmocap import _silhouette_kernels as sk
 from voxelmocap.body import BodyModel
 from voxelmocap.camera import Camera
 from voxelmocap.cues.contours import body_mask, outline_pixels
+from voxelmocap.cues.frame import CueFrame
 
 
 def _camera(name: str, angle: float, size=(1088, 1920)) -> Camera:
@@ -64,16 +65,13 @@ def main(argv=None) -> int:
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, numba threads "
           f"{numba.get_num_threads()}; {args.particles} particles, {len(cameras)} cameras, "
           f"masks {args.size} px along the longer side, {args.repeats} repeats")
+    # the silhouettes reduced exactly as the cue reduces a frame's (CueFrame.silhouette)
+    frame = CueFrame(SimpleNamespace(
+        cameras=cameras, masks=[body_mask(model.geometry(truth[None]), c) for c in cameras],
+        images=[np.zeros((c.size[1], c.size[0]), np.uint8) for c in cameras]))
     rows = []
-    for cam in cameras:
-        w, h = cam.size
-        scale = min(1.0, args.size / max(w, h))
-        small = (max(1, round(w * scale)), max(1, round(h * scale)))
-        full = body_mask(model.geometry(truth[None]), cam)
-        # reduced as the cue reduces a frame's silhouette (voxelmocap.cues.frame.CueFrame)
-        mask = np.ascontiguousarray(cv2.resize(full.astype(np.float32), small,
-                                               interpolation=cv2.INTER_AREA) >= 0.5)
-        factors = np.array([small[0] / w, small[1] / h])
+    for k, cam in enumerate(cameras):
+        mask, factors = frame.silhouette(k, args.size)
         hit = np.empty(args.particles, np.int64)
         extra = np.empty(args.particles, np.int64)
         pixels, valid = outline_pixels(geo, cam, factors)               # warm-up

@@ -237,13 +237,13 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         return _track_pass(seq, out_dir, config=config, resume=resume, overwrite=overwrite,
                            recorder=recorder, masks=masks, person_masks=person_masks,
                            plate_from=plate_from, **common)
-    if final.exists() and not (resume or overwrite):  # refused now, not after the first passes
-        raise InputError(final, "result exists; use --resume to continue it or --overwrite to "
-                                "replace it")
-    if final.exists():  # ... and so is a final result another run is writing
+    if final.exists():  # refused now, not after the first passes
         from .io.results import check_not_being_written
 
-        check_not_being_written(final)
+        if not (resume or overwrite):
+            raise InputError(final, "result exists; use --resume to continue it or --overwrite "
+                                    "to replace it")
+        check_not_being_written(final)    # another run is writing it
     say(f"{passes} tracking passes (measurement.silhouette.plate_passes): the first learns the "
         "background plate by carving, each later one from the body the pass before tracked"
         + (f"; {body_message}" if body_message else ""))
