@@ -104,6 +104,8 @@ def test_partial_file_keeps_defaults(tmp_path):
         ("[filter]\nlimb_sweep_gain = nan\n", "'filter.limb_sweep_gain' must be"),
         ("[filter]\nlimb_sweep_max_hull = 0\n", "'filter.limb_sweep_max_hull' must be > 0"),
         ("[filter]\nlimb_sweep_samples = 1\n", "'filter.limb_sweep_samples' must be >= 2"),
+        ("[init]\nprevious_pass_start = 1\n", r"'init\.previous_pass_start' must be 0 \(never\) or >= 2"),
+        ("[init]\nprevious_pass_start = -3\n", r"'init\.previous_pass_start' must be 0 \(never\) or >= 2"),
         ("[measurement]\nvoxel_size = -5\n",
          r"key 'measurement\.voxel_size' must be between 1 and 250 mm, got -5"),
         ("[measurement]\nvoxel_size = 1e9\n", r"'measurement\.voxel_size' .* got 1e\+09"),

@@ -201,7 +201,7 @@ def test_plate_from_bad_input_is_one_line(walk_dataset, no_plate, tmp_path, caps
 @pytest.fixture(scope="module")
 def long_walk(tmp_path_factory):
     """A 12-frame walk at 6 Hz (2 s: the person uncovers the floor) without ``Background/``,
-    and its two-pass run."""
+    and its run (three passes, the default)."""
     from voxelmocap.synth import generate
 
     root = tmp_path_factory.mktemp("long")
@@ -218,10 +218,11 @@ def _args(data, *extra):
             "--particles", "60", "--frames", "1:10", "--no-progress", *extra]
 
 
-def test_two_passes_are_a_run_and_a_plate_from_run(long_walk, tmp_path):
+def test_the_passes_are_a_run_and_a_plate_from_run(long_walk, tmp_path):
     """Without background videos ``track`` runs a first pass (plate learnt by carving) and a
     second whose plate comes from the first pass's body: what ``track`` and ``track
-    --plate-from`` typed by hand give (same seed), the same states."""
+    --plate-from`` typed by hand give (same seed), the same states. The third learns its plate
+    from the second's body."""
     data, run = long_walk
     one = tmp_path / "one.toml"
     one.write_text("[measurement.silhouette]\nplate_passes = 1\n")
@@ -232,14 +233,20 @@ def test_two_passes_are_a_run_and_a_plate_from_run(long_walk, tmp_path):
                       "--plate-from", str(tmp_path / "a"))) == 0
     by_hand = read_result(tmp_path / "b" / "S1" / "Walking_1.h5")
     passes = read_result(run / "S1" / "Walking_1.h5")
+    second = read_result(run / "S1" / "pass2" / "Walking_1.h5")
     first = read_result(run / "S1" / "pass1" / "Walking_1.h5")
     assert np.array_equal(first.state, read_result(tmp_path / "a" / "S1" /
                                                    "Walking_1.h5").state)
-    assert np.array_equal(passes.state, by_hand.state)
+    assert np.array_equal(second.state, by_hand.state)
     assert passes.observed.all() and len(passes) == 10           # the person in every frame
-    assert passes.attrs["plate_from"] == str((run / "S1" / "pass1" / "Walking_1.h5").resolve())
+    assert second.attrs["plate_from"] == str((run / "S1" / "pass1" / "Walking_1.h5").resolve())
+    assert passes.attrs["plate_from"] == str((run / "S1" / "pass2" / "Walking_1.h5").resolve())
     assert "silhouette = 10.0" in passes.attrs["config"]
+    assert "silhouette = 10.0" in second.attrs["config"]
     assert first.attrs["plate_from"] == "" and "silhouette = 10.0" not in first.attrs["config"]
+    # with ground truth every pass starts from it (exact), the third too
+    assert all(r.attrs["init_method"].startswith("the ground truth of frame 1")
+               for r in (first, second, passes))
     # --all counts the two-pass result as done (it records the final pass's config)
     from voxelmocap.batch import result_is_done
     from voxelmocap.config import config_to_toml
@@ -266,7 +273,7 @@ def test_passes_resume_and_refuse_like_one_run(long_walk, tmp_path, capsys):
     states = read_result(final).state
     capsys.readouterr()
     assert main(args + ["--resume"]) == 0                        # both complete: read only
-    assert capsys.readouterr().out.count("already complete") == 2
+    assert capsys.readouterr().out.count("already complete") == 3
     assert [os.stat(p).st_mtime_ns for p in (first, final)] == stamps
     final.unlink()                               # the final pass interrupted before a frame
     assert main(args + ["--resume"]) == 0
@@ -303,6 +310,57 @@ def test_a_final_result_another_run_writes_is_refused_before_the_passes(long_wal
     finally:
         os.close(fd)
     assert os.stat(first).st_mtime_ns == stamp
+
+
+def test_the_third_pass_starts_where_the_second_did(long_walk, tmp_path, monkeypatch):
+    """Pass 3 tracks with pass 2's body and draws its first particles around pass 2's pose at
+    the first frame (no search from the voxels); passes 1 and 2 find their own starts (from
+    the voxels, as without ground truth: ``init.method = "extremities"``)."""
+    from voxelmocap.pipeline import result_body_model
+    from voxelmocap.tracker import BodyTracker
+
+    data, _ = long_walk
+    out = tmp_path / "run"        # its own run: a result records its pass 2 by absolute path
+    means = []
+    start = BodyTracker.start
+
+    def spy(self, phrase, mean):
+        means.append((phrase, np.array(mean, float)))
+        return start(self, phrase, mean)
+
+    monkeypatch.setattr(BodyTracker, "start", spy)
+    voxels = tmp_path / "voxels.toml"
+    voxels.write_text('[init]\nmethod = "extremities"\n')
+    assert main(_args(data, "--out", str(out), "--config", str(voxels))) == 0
+    second_path = (out / "S1" / "pass2" / "Walking_1.h5").resolve()
+    second = read_result(second_path)
+    final = read_result(out / "S1" / "Walking_1.h5")
+    continued = [(p, m) for p, m in means if p.startswith("the pose of")]
+    assert len(continued) == 1                   # pass 3's start (re-starts may follow)
+    phrase, mean = continued[0]
+    assert phrase == f"the pose of {second_path} at frame 1"
+    assert final.attrs["init_method"] == phrase
+    np.testing.assert_array_equal(mean, second.state[0])
+    # the body pass 2 tracked with (sized and fitted on its own start), as the files record it
+    seq = Dataset(data).sequence("S1", "Walking_1")
+    assert result_body_model(seq, final).dimensions == result_body_model(seq, second).dimensions
+    assert "body_dimensions" in final.attrs
+    first = read_result(out / "S1" / "pass1" / "Walking_1.h5")
+    assert "the voxels of frame" in first.attrs["init_method"]
+    assert "the voxels of frame" in second.attrs["init_method"]
+
+
+@pytest.mark.parametrize("first, expected", [(3, [False, False, True, True]),
+                                             (2, [False, True, True, True]),
+                                             (0, [False, False, False, False])])
+def test_which_passes_continue_the_previous_one(first, expected):
+    """``[init] previous_pass_start``: pass k continues from this one on (0: never); the first
+    pass has no previous pass to continue."""
+    from voxelmocap.pipeline import _continues
+
+    config = with_overrides(TrackConfig(), **{"init.previous_pass_start": first})
+    got = [_continues(config, k) for k in (1, 2, 3, 4)]
+    assert got == expected
 
 
 def test_a_pass_that_saw_the_person_too_rarely_is_repeated(long_walk, tmp_path, capsys,

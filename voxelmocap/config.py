@@ -155,9 +155,12 @@ class SilhouetteConfig:
     #: learnt plate: tracking passes. Each pass after the first learns the plate from the body
     #: the previous pass tracked (what ``track --plate-from RUN`` does by hand) and adds the
     #: silhouette cue; the earlier passes' results go to ``RUN/<subject>/pass<k>/``. On the
-    #: Pose2Sim demo (seeds 0 / 1) one pass tracked to 470 / 270 mm, two to 130 / 102 mm, a
-    #: third to 82 / 423 mm (a start facing backwards): 2 by default (docs/benchmarks.md)
-    plate_passes: int = 2
+    #: Pose2Sim demo (seeds 0 / 1 / 2) one pass tracked to 470 / 270 / 452 mm, two to
+    #: 130 / 102 / 107 mm, three to 73 / 69 / 67 mm (the third started from the second:
+    #: ``[init] previous_pass_start``; started from the voxels it chose a start facing
+    #: backwards for seed 1, 423 mm). Each pass costs about as much as the first
+    #: (docs/benchmarks.md)
+    plate_passes: int = 3
     #: GrabCut runs at this share of the image's resolution (its cost grows with the pixels)
     grabcut_scale: float = 0.33
     grabcut_iterations: int = 2  #: GrabCut's iterations per silhouette
@@ -396,6 +399,14 @@ class InitConfig:
     #: the five clips without the answer (seed 0, σ²_DO 0.1): 84.1 mm without, 62.0 mm with.
     #: A re-initialisation (``voxelmocap.recovery``) searches its candidates' limbs too
     limb_sweep: bool = True
+    #: a run that learns its plate in passes (``[measurement.silhouette] plate_passes``): pass
+    #: ``k`` from this one on starts from the previous pass's body and its pose at the first
+    #: frame instead of from the voxels (the second pass, the first on a plate learnt from a
+    #: body, finds its own start); 0: every pass starts from the voxels. On the Pose2Sim demo a
+    #: third pass started from the voxels chose a start facing backwards (seed 1, 423 mm);
+    #: started from the second pass, seeds 0 / 1 / 2 tracked to 73 / 69 / 67 mm against
+    #: 130 / 102 / 107 mm after two passes (docs/benchmarks.md)
+    previous_pass_start: int = 3
 
 
 #: Formats ``track`` and ``export`` write (:mod:`voxelmocap.io.exports`).
@@ -636,6 +647,9 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, f"key {key!r} must be > 0")
     if isinstance(obj, InitConfig) and obj.settle_steps < 0:
         raise InputError(source, f"key '{prefix}.settle_steps' must be >= 0")
+    if isinstance(obj, InitConfig) and (obj.previous_pass_start < 0
+                                        or obj.previous_pass_start == 1):
+        raise InputError(source, f"key '{prefix}.previous_pass_start' must be 0 (never) or >= 2")
     if isinstance(obj, FilterConfig):
         _check_filter(obj, prefix, source)
         if not 0.0 <= obj.limb_explore < 1.0:

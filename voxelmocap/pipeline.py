@@ -249,24 +249,35 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
         + (f"; {body_message}" if body_message else ""))
     # Every pass runs with the run's resume/overwrite: resuming, a complete pass only reads its
     # file; the passes are deterministic for a seed, so a pass tracked again is the same pass.
-    previous, pass_config = None, config
+    # ``done`` counts the passes whose body the next pass learns from (a pass that saw the
+    # person too rarely gives none: the next one then does what it did)
+    previous, pass_config, done = None, config, 0
     for k in range(1, passes):
         folder = pass_folder(k)
         path = _result_paths(Path(out_dir), seq, folder)[0]
         say(f"tracking pass {k} of {passes} → {path}")
         _track_pass(seq, out_dir, folder=folder, config=pass_config, resume=resume,
                     overwrite=overwrite, recorder=None, masks=None, person_masks=None,
-                    plate_from=previous, **common)
+                    plate_from=previous, start_from_plate=_continues(config, done + 1),
+                    **common)
         seen = _frames_with_person(path)
         if seen < MIN_BODY_FRAMES:
             say(f"warning: pass {k} saw the person in {seen} frame(s), fewer than the "
                 f"{MIN_BODY_FRAMES} a plate from its body needs: the last pass tracks as it did")
             break
-        previous, pass_config = path, body_config
+        previous, pass_config, done = path, body_config, k
     say(f"tracking pass {passes} of {passes} → {final}")
     return _track_pass(seq, out_dir, config=pass_config, resume=resume, overwrite=overwrite,
                        recorder=recorder, masks=None, person_masks=None, plate_from=previous,
-                       **common)
+                       start_from_plate=_continues(config, done + 1), **common)
+
+
+def _continues(config, k: int) -> bool:
+    """Whether the ``k``-th pass (counted along the bodies it learns from: after a pass that
+    gave none, the next one counts as that one) starts from the previous pass's body and first
+    pose (``[init] previous_pass_start``) rather than from the voxels."""
+    first = config.init.previous_pass_start     # 0 (never) or >= 2: validated
+    return first > 0 and k >= first
 
 
 def _frames_with_person(path) -> int:
@@ -279,9 +290,11 @@ def _frames_with_person(path) -> int:
 
 def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resume, overwrite,
                 progress, log, fps, recorder, masks, person_masks, plate_from, say,
-                folder: str = "") -> TrackOutcome:
+                folder: str = "", start_from_plate: bool = False) -> TrackOutcome:
     """One tracking pass of ``seq`` (:func:`track_sequence`), its results under
-    ``RUN/<subject>/<folder>/``."""
+    ``RUN/<subject>/<folder>/``. With ``start_from_plate`` the pass tracks with the body of
+    ``plate_from`` and starts from its pose at the first frame it holds (a pass continuing the
+    previous one), not from the voxels."""
     from .io.results import ResultWriter
 
     plate_body = None if plate_from is None else tracked_body(plate_from, seq, gt)
@@ -310,6 +323,20 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
         "plate_from": "" if plate_body is None else plate_body.source,
     }
     tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
+    # (a start from the ground truth, when the run has it, stays exact)
+    continued = (start_from_plate and plate_body is not None
+                 and not _starts_from_ground_truth(config, gt, int(selected[0])))
+    if continued:
+        # The previous pass's fitted body and its start: a later pass on a better plate would
+        # otherwise search the start again, and may keep one facing backwards (the multi-start
+        # judges 10 frames; the previous pass judged the whole sequence on its plate).
+        from .body_size import dimensions_to_json
+
+        model, model_source = plate_body.model, f"the body of {plate_body.source}"
+        size_from_voxels = fit_body = False
+        meta.update(body_model=model_source, body_height_mm=float(model.dimensions.height),
+                    body_dimensions=dimensions_to_json(model.dimensions))
+        tracker = BodyTracker(model, config, seed=seed)
     # Locks an existing result for the whole run (refused while another run writes it).
     with ResultWriter(result_path) as writer:
         previous = _previous_run(writer, meta, resume, overwrite)
@@ -394,6 +421,13 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
                     meta["body_height_mm"] = float(model.dimensions.height)
                     say(f"body: {model_source}")
                     tracker = BodyTracker(model, config, seed=seed)
+                if (continued and not tracker.initialised and starts is None
+                        and frame_number in plate_body.frames):
+                    k = int(np.searchsorted(plate_body.frames, frame_number))
+                    init_method = tracker.start(
+                        f"the pose of {plate_body.source} at frame {frame_number}",
+                        plate_body.states[k])
+                    say(f"initialised from {init_method}")
                 if not tracker.initialised and starts is None:
                     init_method, states = tracker.initial_state(
                         measurement, ground_truth_landmarks(gt, frame_number), frame=frame_number)
