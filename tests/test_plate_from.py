@@ -247,7 +247,7 @@ def test_the_passes_are_a_run_and_a_plate_from_run(long_walk, tmp_path):
     # with ground truth every pass starts from it (exact), the third too
     assert all(r.attrs["init_method"].startswith("the ground truth of frame 1")
                for r in (first, second, passes))
-    # --all counts the two-pass result as done (it records the final pass's config)
+    # --all counts the result of several passes as done (it records the final pass's config)
     from voxelmocap.batch import result_is_done
     from voxelmocap.config import config_to_toml
 
@@ -264,20 +264,21 @@ def test_passes_resume_and_refuse_like_one_run(long_walk, tmp_path, capsys):
     import os
 
     data, _ = long_walk
-    out = tmp_path / "run"        # its own run: a result records its pass 1 by absolute path
+    out = tmp_path / "run"        # its own run: a result records its previous pass's path
     args = _args(data, "--out", str(out))
     assert main(args) == 0
     first = out / "S1" / "pass1" / "Walking_1.h5"
+    second = out / "S1" / "pass2" / "Walking_1.h5"
     final = out / "S1" / "Walking_1.h5"
-    stamps = [os.stat(p).st_mtime_ns for p in (first, final)]
+    stamps = [os.stat(p).st_mtime_ns for p in (first, second, final)]
     states = read_result(final).state
     capsys.readouterr()
-    assert main(args + ["--resume"]) == 0                        # both complete: read only
+    assert main(args + ["--resume"]) == 0                        # all complete: read only
     assert capsys.readouterr().out.count("already complete") == 3
-    assert [os.stat(p).st_mtime_ns for p in (first, final)] == stamps
+    assert [os.stat(p).st_mtime_ns for p in (first, second, final)] == stamps
     final.unlink()                               # the final pass interrupted before a frame
     assert main(args + ["--resume"]) == 0
-    assert os.stat(first).st_mtime_ns == stamps[0]
+    assert [os.stat(p).st_mtime_ns for p in (first, second)] == stamps[:2]
     assert np.array_equal(read_result(final).state, states)
     first.unlink()
     capsys.readouterr()
@@ -312,15 +313,15 @@ def test_a_final_result_another_run_writes_is_refused_before_the_passes(long_wal
     assert os.stat(first).st_mtime_ns == stamp
 
 
-def test_the_third_pass_starts_where_the_second_did(long_walk, tmp_path, monkeypatch):
-    """Pass 3 tracks with pass 2's body and draws its first particles around pass 2's pose at
-    the first frame (no search from the voxels); passes 1 and 2 find their own starts (from
-    the voxels, as without ground truth: ``init.method = "extremities"``)."""
-    from voxelmocap.pipeline import result_body_model
+@pytest.fixture(scope="module")
+def no_answer_run(long_walk, link_without_answer, tmp_path_factory):
+    """``long_walk``'s data without ``Mocap_Data`` (no ground truth, no body file: a user's
+    case), its run at the defaults (three passes), and ``(phrase, mean)`` of every
+    ``BodyTracker.start`` of that run (the mean its first particles were drawn around)."""
     from voxelmocap.tracker import BodyTracker
 
-    data, _ = long_walk
-    out = tmp_path / "run"        # its own run: a result records its pass 2 by absolute path
+    root = tmp_path_factory.mktemp("noanswer")
+    data = link_without_answer(long_walk[0], root / "data")
     means = []
     start = BodyTracker.start
 
@@ -328,10 +329,19 @@ def test_the_third_pass_starts_where_the_second_did(long_walk, tmp_path, monkeyp
         means.append((phrase, np.array(mean, float)))
         return start(self, phrase, mean)
 
-    monkeypatch.setattr(BodyTracker, "start", spy)
-    voxels = tmp_path / "voxels.toml"
-    voxels.write_text('[init]\nmethod = "extremities"\n')
-    assert main(_args(data, "--out", str(out), "--config", str(voxels))) == 0
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(BodyTracker, "start", spy)
+        assert main(_args(data, "--out", str(root / "run"))) == 0
+    return data, root / "run", means
+
+
+def test_the_third_pass_starts_where_the_second_did(no_answer_run):
+    """Pass 3 tracks with the body pass 2 fitted and draws its first particles around pass 2's
+    pose at the first frame (no search from the voxels); passes 1 and 2 find their own starts
+    from the voxels and fit their own bodies."""
+    import json
+
+    _, out, means = no_answer_run
     second_path = (out / "S1" / "pass2" / "Walking_1.h5").resolve()
     second = read_result(second_path)
     final = read_result(out / "S1" / "Walking_1.h5")
@@ -341,13 +351,69 @@ def test_the_third_pass_starts_where_the_second_did(long_walk, tmp_path, monkeyp
     assert phrase == f"the pose of {second_path} at frame 1"
     assert final.attrs["init_method"] == phrase
     np.testing.assert_array_equal(mean, second.state[0])
-    # the body pass 2 tracked with (sized and fitted on its own start), as the files record it
-    seq = Dataset(data).sequence("S1", "Walking_1")
-    assert result_body_model(seq, final).dimensions == result_body_model(seq, second).dimensions
-    assert "body_dimensions" in final.attrs
+    # pass 2 fitted its body on its own start (no body file): pass 3 tracked with that body
+    assert "lengths fitted" in second.attrs["body_model"]
+    assert final.attrs["body_model"] == f"the body of {second_path}"
+    assert json.loads(final.attrs["body_dimensions"]) == json.loads(
+        second.attrs["body_dimensions"])
     first = read_result(out / "S1" / "pass1" / "Walking_1.h5")
-    assert "the voxels of frame" in first.attrs["init_method"]
-    assert "the voxels of frame" in second.attrs["init_method"]
+    for r in (first, second):
+        assert "the voxels of frame" in r.attrs["init_method"]
+
+
+def test_a_continued_pass_resumes_where_it_was_interrupted(no_answer_run, tmp_path,
+                                                          monkeypatch, capsys):
+    """The third pass interrupted after two frames and resumed (``--resume``): passes 1 and 2
+    are read, not tracked again, and the final states equal the uninterrupted run's."""
+    from voxelmocap.io.results import ResultWriter
+
+    data, out, _ = no_answer_run
+    final = out / "S1" / "Walking_1.h5"
+    kept = tmp_path / "final.h5"
+    shutil.copy2(final, kept)                    # the module's run is restored at the end
+    try:
+        final.unlink()
+        real_append = ResultWriter.append
+        calls = {"n": 0}
+
+        def interrupted(self, *args, **kw):
+            calls["n"] += 1
+            if calls["n"] == 3:
+                raise KeyboardInterrupt
+            real_append(self, *args, **kw)
+
+        monkeypatch.setattr(ResultWriter, "append", interrupted)
+        assert main(_args(data, "--out", str(out), "--resume")) != 0
+        monkeypatch.setattr(ResultWriter, "append", real_append)
+        assert len(read_result(final)) == 2      # two frames written before the interruption
+        capsys.readouterr()
+        assert main(_args(data, "--out", str(out), "--resume")) == 0
+        assert capsys.readouterr().out.count("already complete") == 2     # passes 1 and 2
+        resumed, whole = read_result(final), read_result(kept)
+        np.testing.assert_array_equal(resumed.state, whole.state)
+        assert resumed.attrs["init_method"] == whole.attrs["init_method"]
+        assert resumed.attrs["body_dimensions"] == whole.attrs["body_dimensions"]
+    finally:
+        shutil.copy2(kept, final)
+
+
+def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monkeypatch):
+    """Pass 2 saw the person too rarely: the last pass tracks as pass 2 did (plate from pass
+    1's body, start searched from the voxels), not continuing pass 1."""
+    import voxelmocap.pipeline as pipeline
+
+    data, _, _ = no_answer_run
+    out = tmp_path / "run"
+    real = pipeline._frames_with_person
+    monkeypatch.setattr(pipeline, "_frames_with_person",
+                        lambda path: 3 if path.parent.name == "pass2" else real(path))
+    assert main(_args(data, "--out", str(out))) == 0
+    second = read_result(out / "S1" / "pass2" / "Walking_1.h5")
+    final = read_result(out / "S1" / "Walking_1.h5")
+    assert final.attrs["plate_from"] == str((out / "S1" / "pass1" / "Walking_1.h5").resolve())
+    assert final.attrs["init_method"] == second.attrs["init_method"]
+    assert "the voxels of frame" in final.attrs["init_method"]
+    np.testing.assert_array_equal(final.state, second.state)
 
 
 @pytest.mark.parametrize("first, expected", [(3, [False, False, True, True]),

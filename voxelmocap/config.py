@@ -158,8 +158,8 @@ class SilhouetteConfig:
     #: Pose2Sim demo (seeds 0 / 1 / 2) one pass tracked to 470 / 270 / 452 mm, two to
     #: 130 / 102 / 107 mm, three to 73 / 69 / 67 mm (the third started from the second:
     #: ``[init] previous_pass_start``; started from the voxels it chose a start facing
-    #: backwards for seed 1, 423 mm). Each pass costs about as much as the first
-    #: (docs/benchmarks.md)
+    #: backwards for seed 1, 423 mm). Each pass tracks the whole sequence again: on an idle
+    #: machine a pass tracked the demo's 100 frames in about 105 s (docs/benchmarks.md)
     plate_passes: int = 3
     #: GrabCut runs at this share of the image's resolution (its cost grows with the pixels)
     grabcut_scale: float = 0.33

@@ -7,7 +7,9 @@
 * A plate learnt from the sequence is tracked in passes (:func:`plate_passes`): the first
   learns its plate by carving against the sequence's temporal median, every later one from the
   body the previous pass tracked (:func:`voxelmocap.body_cover.plate_covers_of`), which finds
-  the background behind a person who stays in one place far better. The runner
+  the background behind a person who stays in one place far better; from
+  ``[init] previous_pass_start`` on a pass also starts from the previous pass's body and pose
+  instead of searching its start again (``pipeline._continues``). The runner
   (:func:`voxelmocap.pipeline.track_sequence`) writes the earlier passes' results to
   ``RUN/<subject>/pass<k>/`` (:func:`pass_folder`), beside the final result.
 

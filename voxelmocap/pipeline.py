@@ -143,8 +143,10 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
 
     A run that learns its background plate from the sequence tracks it in passes
     (:func:`voxelmocap.passes.plate_passes`): each pass after the first learns the plate from
-    the body the previous pass tracked, as ``plate_from`` does; the earlier passes' results go
-    to ``RUN/<subject>/pass<k>/`` and are resumed like the final one.
+    the body the previous pass tracked, as ``plate_from`` does, and from ``[init]
+    previous_pass_start`` on starts from that pass's body and pose (:func:`_continues`); the
+    earlier passes' results go to ``RUN/<subject>/pass<k>/`` and are resumed like the final
+    one.
 
     Parameters
     ----------
@@ -244,32 +246,35 @@ def track_sequence(dataset_root, subject: str | None, sequence: str | None, out_
             raise InputError(final, "result exists; use --resume to continue it or --overwrite "
                                     "to replace it")
         check_not_being_written(final)    # another run is writing it
+    first = config.init.previous_pass_start
     say(f"{passes} tracking passes (measurement.silhouette.plate_passes): the first learns the "
         "background plate by carving, each later one from the body the pass before tracked"
+        + (f"; from pass {first} on a pass starts from the previous pass's body and pose "
+           "(init.previous_pass_start)" if 0 < first <= passes else "")
         + (f"; {body_message}" if body_message else ""))
     # Every pass runs with the run's resume/overwrite: resuming, a complete pass only reads its
     # file; the passes are deterministic for a seed, so a pass tracked again is the same pass.
-    # ``done`` counts the passes whose body the next pass learns from (a pass that saw the
+    # ``bodies`` counts the passes whose body the next pass learns from (a pass that saw the
     # person too rarely gives none: the next one then does what it did)
-    previous, pass_config, done = None, config, 0
+    previous, pass_config, bodies = None, config, 0
     for k in range(1, passes):
         folder = pass_folder(k)
         path = _result_paths(Path(out_dir), seq, folder)[0]
         say(f"tracking pass {k} of {passes} → {path}")
         _track_pass(seq, out_dir, folder=folder, config=pass_config, resume=resume,
                     overwrite=overwrite, recorder=None, masks=None, person_masks=None,
-                    plate_from=previous, start_from_plate=_continues(config, done + 1),
+                    plate_from=previous, start_from_plate=_continues(config, bodies + 1),
                     **common)
         seen = _frames_with_person(path)
         if seen < MIN_BODY_FRAMES:
             say(f"warning: pass {k} saw the person in {seen} frame(s), fewer than the "
                 f"{MIN_BODY_FRAMES} a plate from its body needs: the last pass tracks as it did")
             break
-        previous, pass_config, done = path, body_config, k
+        previous, pass_config, bodies = path, body_config, k
     say(f"tracking pass {passes} of {passes} → {final}")
     return _track_pass(seq, out_dir, config=pass_config, resume=resume, overwrite=overwrite,
                        recorder=recorder, masks=None, person_masks=None, plate_from=previous,
-                       start_from_plate=_continues(config, done + 1), **common)
+                       start_from_plate=_continues(config, bodies + 1), **common)
 
 
 def _continues(config, k: int) -> bool:
@@ -293,8 +298,10 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
                 folder: str = "", start_from_plate: bool = False) -> TrackOutcome:
     """One tracking pass of ``seq`` (:func:`track_sequence`), its results under
     ``RUN/<subject>/<folder>/``. With ``start_from_plate`` the pass tracks with the body of
-    ``plate_from`` and starts from its pose at the first frame it holds (a pass continuing the
-    previous one), not from the voxels."""
+    ``plate_from`` and starts from its pose at the pass's first frame with the person (a pass
+    continuing the previous one), not from the voxels — unless that frame starts from the
+    ground truth, or the previous pass holds no pose there (then the start is searched from the
+    voxels as usual, with that body, and the log says so)."""
     from .io.results import ResultWriter
 
     plate_body = None if plate_from is None else tracked_body(plate_from, seq, gt)
@@ -323,11 +330,9 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
         "plate_from": "" if plate_body is None else plate_body.source,
     }
     tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
-    # (a start from the ground truth, when the run has it, stays exact)
-    continued = (start_from_plate and plate_body is not None
-                 and not _starts_from_ground_truth(config, gt, int(selected[0])))
+    continued = start_from_plate and plate_body is not None
     if continued:
-        # The previous pass's fitted body and its start: a later pass on a better plate would
+        # The previous pass's body and its start: a later pass on a better plate would
         # otherwise search the start again, and may keep one facing backwards (the multi-start
         # judges 10 frames; the previous pass judged the whole sequence on its plate).
         from .body_size import dimensions_to_json
@@ -422,12 +427,18 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
                     say(f"body: {model_source}")
                     tracker = BodyTracker(model, config, seed=seed)
                 if (continued and not tracker.initialised and starts is None
-                        and frame_number in plate_body.frames):
-                    k = int(np.searchsorted(plate_body.frames, frame_number))
-                    init_method = tracker.start(
-                        f"the pose of {plate_body.source} at frame {frame_number}",
-                        plate_body.states[k])
-                    say(f"initialised from {init_method}")
+                        and not _starts_from_ground_truth(config, gt, frame_number)):
+                    # (a start from the ground truth, when the run has it, stays exact)
+                    if frame_number in plate_body.frames:
+                        k = int(np.searchsorted(plate_body.frames, frame_number))
+                        init_method = tracker.start(
+                            f"the pose of {plate_body.source} at frame {frame_number}",
+                            plate_body.states[k])
+                        say(f"initialised from {init_method}")
+                    else:
+                        say(f"note: {plate_body.source} has no pose at frame {frame_number}: "
+                            "the start is searched from the voxels, with its body")
+                    continued = False
                 if not tracker.initialised and starts is None:
                     init_method, states = tracker.initial_state(
                         measurement, ground_truth_landmarks(gt, frame_number), frame=frame_number)

@@ -557,7 +557,7 @@ class BodyTracker:
         """Draw the first particles around ``mean`` ((27,) or (K, 27) for a mixture).
 
         A start from the ground truth is exact: it gets no settling steps (``init.settle_steps``
-        apply to starts found from the voxels).
+        apply to every other start: from the voxels, or a previous pass's pose).
         """
         self.init_method = phrase
         self._start_pose = np.atleast_2d(np.asarray(mean, dtype=float))[0]   # best start first

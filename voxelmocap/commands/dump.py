@@ -42,9 +42,10 @@ def add_parser(subparsers) -> None:
                         help="background model (default gaussian, the HumanEva toolkit's)")
     parser.add_argument("--plate-from", metavar="RUN",
                         help="without background videos: learn the plate with the body RUN "
-                             "tracked (a run folder, a pass folder or a .h5), as track's final "
-                             "pass does: give a two-pass run's RUN/<subject>/pass1 (a "
-                             "project: RUN/<trial>/pass1) to see what its final pass measured")
+                             "tracked (a run folder, a pass folder or a .h5), as track's later "
+                             "passes do: give a run's last pass folder, RUN/<subject>/pass2 by "
+                             "default (a project: RUN/<trial>/pass2), to see what its final "
+                             "pass measured")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.set_defaults(run=run, log_folder=_log_folder)
 

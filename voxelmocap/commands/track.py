@@ -44,8 +44,10 @@ def add_parser(subparsers) -> None:
                              "previous run (its folder or .h5) tracked in this sequence as the "
                              "person, instead of carving against a first plate; the run then "
                              "uses the silhouette cue too. Without it a run that learns its plate "
-                             "does this itself: a first pass, then a pass with the plate from its "
-                             "body ([measurement.silhouette] plate_passes; docs/projects.md)")
+                             "does this itself: a first pass, then passes each with the plate "
+                             "from the body of the pass before, the third starting from the "
+                             "second's pose ([measurement.silhouette] plate_passes, [init] "
+                             "previous_pass_start; docs/projects.md)")
     parser.add_argument("--all", action="store_true",
                         help="track every sequence with videos of the data set; finished ones "
                              "are skipped, interrupted ones resumed")
