@@ -362,29 +362,19 @@ def test_the_third_pass_starts_where_the_second_did(no_answer_run):
 
 
 def test_a_continued_pass_resumes_where_it_was_interrupted(no_answer_run, tmp_path,
-                                                          monkeypatch, capsys):
+                                                          interrupt_at_third_frame, capsys):
     """The third pass interrupted after two frames and resumed (``--resume``): passes 1 and 2
     are read, not tracked again, and the final states equal the uninterrupted run's."""
-    from voxelmocap.io.results import ResultWriter
-
     data, out, _ = no_answer_run
     final = out / "S1" / "Walking_1.h5"
     kept = tmp_path / "final.h5"
     shutil.copy2(final, kept)                    # the module's run is restored at the end
     try:
         final.unlink()
-        real_append = ResultWriter.append
-        calls = {"n": 0}
-
-        def interrupted(self, *args, **kw):
-            calls["n"] += 1
-            if calls["n"] == 3:
-                raise KeyboardInterrupt
-            real_append(self, *args, **kw)
-
-        monkeypatch.setattr(ResultWriter, "append", interrupted)
-        assert main(_args(data, "--out", str(out), "--resume")) != 0
-        monkeypatch.setattr(ResultWriter, "append", real_append)
+        # what _args sets: the same config, so that the command line resumes this run
+        small = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 60})
+        interrupt_at_third_frame(data, out, config=small, frames="1:10", progress=False,
+                                 resume=True)
         assert len(read_result(final)) == 2      # two frames written before the interruption
         capsys.readouterr()
         assert main(_args(data, "--out", str(out), "--resume")) == 0
