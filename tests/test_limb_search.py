@@ -38,6 +38,27 @@ def test_the_sweep_finds_limbs_rendered_from_the_model():
         assert all(g >= 0 for g in gains.values())
 
 
+def test_only_the_limbs_named_are_searched():
+    """``limbs``: the arms found where the voxels were rasterised, the legs left as they
+    started (one straight down, the truth's elsewhere); the arms as a search of all four finds
+    them (same Sobol points per limb). Unknown names are refused."""
+    model = BodyModel()
+    truth = _random_limbs(model, np.random.default_rng(5))
+    seen = Measurement(rasterise(model, truth[None], GRID) > 0, GRID)
+    start = model.default_state()
+    arms = np.r_[LIMBS["l_arm"][0], LIMBS["r_arm"][0]]
+    rest = np.setdiff1d(np.arange(model.n_dims), arms)
+    found, gains = sweep_limbs(seen, model, start, samples=512, limbs=("l_arm", "r_arm"))
+    np.testing.assert_array_equal(found[rest], model.clip(start[None])[0][rest])
+    assert gains["l_leg"] == gains["r_leg"] == 0.0 and gains["l_arm"] > 0 and gains["r_arm"] > 0
+    err = np.linalg.norm(model.landmarks(found[None])[0] - model.landmarks(truth[None])[0],
+                         axis=1)
+    wrists = [4, 7]                                # LANDMARK_NAMES: l_wrist, r_wrist
+    assert err[wrists].max() < 80.0, err.round()
+    with pytest.raises(ValueError, match="unknown limbs"):
+        sweep_limbs(seen, model, start, limbs=("l_arm", "tail"))
+
+
 def test_the_sweep_never_lowers_the_likelihood_and_keeps_the_optimum():
     model = BodyModel()
     truth = _random_limbs(model, np.random.default_rng(8))

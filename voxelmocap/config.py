@@ -156,7 +156,7 @@ class SilhouetteConfig:
     #: the previous pass tracked (what ``track --plate-from RUN`` does by hand) and adds the
     #: silhouette cue; the earlier passes' results go to ``RUN/<subject>/pass<k>/``. On the
     #: Pose2Sim demo (seeds 0 / 1 / 2) one pass tracked to 470 / 270 / 452 mm, two to
-    #: 130 / 102 / 107 mm, three to 73 / 69 / 67 mm (the third started from the second:
+    #: 130 / 102 / 107 mm, three to 73 / 68 / 72 mm (the third started from the second:
     #: ``[init] previous_pass_start``; started from the voxels it chose a start facing
     #: backwards for seed 1, 423 mm). Each pass tracks the whole sequence again: on an idle
     #: machine a pass tracked the demo's 100 frames in about 105 s (docs/benchmarks.md)
@@ -402,10 +402,12 @@ class InitConfig:
     #: a run that learns its plate in passes (``[measurement.silhouette] plate_passes``): pass
     #: ``k`` from this one on starts from the previous pass's body and its pose at the first
     #: frame instead of from the voxels (the second pass, the first on a plate learnt from a
-    #: body, finds its own start); 0: every pass starts from the voxels. On the Pose2Sim demo a
-    #: third pass started from the voxels chose a start facing backwards (seed 1, 423 mm);
-    #: started from the second pass, seeds 0 / 1 / 2 tracked to 73 / 69 / 67 mm against
-    #: 130 / 102 / 107 mm after two passes (docs/benchmarks.md)
+    #: body, finds its own start), only its arms searched again (``limb_sweep``); 0: every pass
+    #: starts from the voxels. On the Pose2Sim demo a third pass started from the voxels chose a
+    #: start facing backwards (seed 1, 423 mm); started from the second pass, seeds 0 / 1 / 2
+    #: tracked to 73 / 68 / 72 mm against 130 / 102 / 107 mm after two passes (all limbs
+    #: searched: seed 2 105 mm; none: 73 / 69 / 67 mm, the left arm of seed 0 off for its
+    #: first 10 frames; docs/benchmarks.md)
     previous_pass_start: int = 3
 
 

@@ -46,7 +46,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
                 samples: int = 1024,
                 sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0,
                 min_gain: float = 0.0, others: Callable[[np.ndarray], np.ndarray] | None = None,
-                voxel_weight: float = 1.0, swaps: bool = False
+                voxel_weight: float = 1.0, swaps: bool = False,
+                limbs: tuple[str, ...] | None = None
                 ) -> tuple[np.ndarray, dict[str, float]]:
     """Search every limb over its legal box on one frame, the rest of the body held.
 
@@ -86,6 +87,9 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         Before the sweeps, try each pair's limbs exchanged (:func:`swapped_limbs`): legs
         crossed onto each other's voxels, or the left arm raised for the right, are one move
         away from right, which a search of one limb with the other held cannot make.
+    limbs : tuple of str, optional
+        Search only these limbs (names of :data:`LIMBS`; default all); each keeps the Sobol
+        sequence it has in a search of all of them.
 
     Returns
     -------
@@ -98,6 +102,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
 
     if not min_gain >= 0:
         raise ValueError(f"min_gain must be >= 0, got {min_gain!r}")
+    if limbs is not None and not set(limbs) <= set(LIMBS):
+        raise ValueError(f"unknown limbs {sorted(set(limbs) - set(LIMBS))}: not in {list(LIMBS)}")
     x = model.clip(np.asarray(state, dtype=float)[None])[0]
     gains = dict.fromkeys(LIMBS, 0.0)
     if swaps:
@@ -106,6 +112,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
     m = int(np.ceil(np.log2(max(int(samples), 2))))
     for sweep in range(int(sweeps)):
         for j, (name, (dims, parts)) in enumerate(LIMBS.items()):
+            if limbs is not None and name not in limbs:
+                continue
             dims_a = np.asarray(dims)
             scorer = PartialScorer(observation, model, x, parts, dims)
 

@@ -431,9 +431,17 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
                     # (a start from the ground truth, when the run has it, stays exact)
                     if frame_number in plate_body.frames:
                         k = int(np.searchsorted(plate_body.frames, frame_number))
-                        init_method = tracker.start(
-                            f"the pose of {plate_body.source} at frame {frame_number}",
-                            plate_body.states[k])
+                        phrase = f"the pose of {plate_body.source} at frame {frame_number}"
+                        state = plate_body.states[k]
+                        if config.init.limb_sweep:
+                            # The arms only, on this pass's better silhouettes: a start whose arm
+                            # the previous pass had wrong keeps it for frames otherwise; the legs
+                            # searched too lost the demo's standing leg (docs/benchmarks.md)
+                            swept, moved = tracker.searched_starts(measurement, state[None],
+                                                                   limbs=CONTINUED_SEARCH)
+                            state = swept[0]
+                            phrase += f"; arms searched over their ranges ({moved} moved)"
+                        init_method = tracker.start(phrase, state)
                         say(f"initialised from {init_method}")
                     else:
                         say(f"note: {plate_body.source} has no pose at frame {frame_number}: "
@@ -640,6 +648,8 @@ def _select_frames(seq, gt, frames: str | None) -> np.ndarray:
 
 
 #: Attributes a resumed run must share with the file it continues.
+#: the limbs a pass continuing the previous one searches on its first frame (``init.limb_sweep``)
+CONTINUED_SEARCH = ("l_arm", "r_arm")
 _RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested",
                 "person_masks", "plate_from")
 

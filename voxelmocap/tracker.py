@@ -521,8 +521,9 @@ class BodyTracker:
         occupied = float(observation.n_occupied) * float(observation.grid.voxel_size) ** 3
         return occupied <= self.config.filter.limb_sweep_max_hull * body_volume(self.model)
 
-    def sweep_limbs(self, observation, states) -> tuple[np.ndarray, int]:
-        """Each starting pose's limbs searched over their legal ranges on this frame
+    def sweep_limbs(self, observation, states, limbs=None) -> tuple[np.ndarray, int]:
+        """Each starting pose's limbs (``limbs``: these only, names of
+        :data:`~voxelmocap.limb_search.LIMBS`) searched over their legal ranges on this frame
         (:func:`voxelmocap.limb_search.sweep_limbs`); returns the poses (same shape) and how
         many limbs moved over all of them."""
         from .limb_search import sweep_limbs
@@ -535,15 +536,16 @@ class BodyTracker:
             out[k], gains = sweep_limbs(observation, self.model, out[k], variances=self.variances,
                                         coverage=self.coverage, seed=k, others=others,
                                         voxel_weight=self._voxel_weight,
-                                        swaps=self.config.filter.limb_swaps)
+                                        swaps=self.config.filter.limb_swaps, limbs=limbs)
             moved += sum(g > 0 for g in gains.values())
         return out.reshape(states.shape), moved
 
-    def searched_starts(self, observation, states) -> tuple[np.ndarray, int]:
+    def searched_starts(self, observation, states, limbs=None) -> tuple[np.ndarray, int]:
         """:meth:`sweep_limbs` scored as a start is (paper 002's likelihood, no coverage term):
-        the first start's and every re-initialisation's candidates (``init.limb_sweep``)."""
+        the first start's and every re-initialisation's candidates (``init.limb_sweep``), and
+        the arms of a pass continuing the previous one."""
         with self._paper_likelihood():
-            return self.sweep_limbs(observation, states)
+            return self.sweep_limbs(observation, states, limbs)
 
     def initialise(self, observation, ground_truth=None, *, frame=None) -> str:
         """Draw the first particles around :meth:`initial_state`; returns how it started.
