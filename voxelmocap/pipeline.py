@@ -329,7 +329,6 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
         "person_masks": "" if masks is None else str(Path(masks).resolve()),
         "plate_from": "" if plate_body is None else plate_body.source,
     }
-    tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
     continued = start_from_plate and plate_body is not None
     if continued:
         # The previous pass's body and its start: a later pass on a better plate would
@@ -341,7 +340,7 @@ def _track_pass(seq, out_dir, *, dataset_root, gt, selected, config, seed, resum
         size_from_voxels = fit_body = False
         meta.update(body_model=model_source, body_height_mm=float(model.dimensions.height),
                     body_dimensions=dimensions_to_json(model.dimensions))
-        tracker = BodyTracker(model, config, seed=seed)
+    tracker = None if size_from_voxels else BodyTracker(model, config, seed=seed)
     # Locks an existing result for the whole run (refused while another run writes it).
     with ResultWriter(result_path) as writer:
         previous = _previous_run(writer, meta, resume, overwrite)
@@ -647,9 +646,9 @@ def _select_frames(seq, gt, frames: str | None) -> np.ndarray:
     return selected
 
 
-#: Attributes a resumed run must share with the file it continues.
 #: the limbs a pass continuing the previous one searches on its first frame (``init.limb_sweep``)
 CONTINUED_SEARCH = ("l_arm", "r_arm")
+#: Attributes a resumed run must share with the file it continues.
 _RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested",
                 "person_masks", "plate_from")
 
