@@ -20,7 +20,7 @@ import numpy as np
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
 from voxelmocap.io.reports import score_against
-from voxelmocap.pipeline import track_sequence
+from voxelmocap.run.pipeline import track_sequence
 from voxelmocap.synth import generate
 
 MOCAP = Path(__file__).resolve().parents[1].parent / "shared" / "mocap"

@@ -35,14 +35,14 @@ import numba
 import numpy as np
 from scipy import ndimage
 
-from voxelmocap import _carving_kernels
 from voxelmocap.camera import Camera, Rig
-from voxelmocap.carving import Carver, carve_reference
 from voxelmocap.grid import VoxelGrid
 from voxelmocap.io.calibration import read_rig
-from voxelmocap.measurement import MeasurementStage
-from voxelmocap.silhouette import SilhouetteConfig, build_backgrounds
-from voxelmocap.surface import smooth_surface, surface_voxels
+from voxelmocap.measure import _carving_kernels
+from voxelmocap.measure.carving import Carver, carve_reference
+from voxelmocap.measure.silhouette import SilhouetteConfig, build_backgrounds
+from voxelmocap.measure.stage import MeasurementStage
+from voxelmocap.measure.surface import smooth_surface, surface_voxels
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 

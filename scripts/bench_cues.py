@@ -1,9 +1,9 @@
 """Cue comparison: voxel-only, each image cue alone and fused, on the rendered benchmark clips.
 
 For every clip and camera set (7 cameras, a 2-camera and a 1-camera subset) the frames are
-measured once (:class:`voxelmocap.measurement_runner.MeasurementRunner`: silhouettes, voxels, and
+measured once (:class:`voxelmocap.run.measurement.MeasurementRunner`: silhouettes, voxels, and
 the camera images the image cues read), then the product's tracker
-(:class:`voxelmocap.tracker.BodyTracker`) runs once per cue setting on the same observations,
+(:class:`voxelmocap.pose.tracker.BodyTracker`) runs once per cue setting on the same observations,
 started from frame 1's ground truth, with the same filter (layers × particles, so the same number
 of likelihood evaluations) and seed. Every setting searches all dimensions at once
 (``filter.search = "joint"``, which image cues force in the product) except ``voxel_hier``, the
@@ -54,7 +54,7 @@ SETTINGS: dict[str, dict[str, float]] = {
     "fused": {"voxel": 1.0, "roi": 1.0, "edges": 0.1},
     "voxel_roi": {"voxel": 1.0, "roi": 1.0},
     "voxel_roi4": {"voxel": 1.0, "roi": 4.0},
-    "fused4": {"voxel": 1.0, "roi": 4.0, "edges": 0.1},   # = voxelmocap.cues.FUSED
+    "fused4": {"voxel": 1.0, "roi": 4.0, "edges": 0.1},   # = voxelmocap.score.cues.FUSED
     "fused_all": {"voxel": 1.0, "edges": 0.1, "dt": 1.0, "roi": 1.0, "blob3d": 1.0,
                   "uniform": 0.2},
     "image": {"edges": 0.1, "roi": 1.0, "dt": 1.0},
@@ -72,8 +72,8 @@ def observations(root: Path, clip: str, cameras, frames: int):
     """(frame numbers, observations, ground truth, body model) of the first ``frames`` frames."""
     from voxelmocap.grid import VoxelGrid
     from voxelmocap.io.humaneva import Dataset
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.pipeline import body_model_for
+    from voxelmocap.run.measurement import MeasurementRunner
+    from voxelmocap.run.pipeline import body_model_for
 
     subject, sequence = clip.split("/")
     # every camera set is carved on the grid of the full rig (one camera alone sees no
@@ -101,7 +101,7 @@ def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="gr
     filter's search (``joint`` or ``hierarchical``); ``overrides`` more ``with_overrides`` keys.
     """
     from voxelmocap.evaluation import evaluate_sequence
-    from voxelmocap.tracker import BodyTracker, ground_truth_landmarks
+    from voxelmocap.pose.tracker import BodyTracker, ground_truth_landmarks
 
     config = with_overrides(TrackConfig(), **{"filter.layers": layers,
                                               "filter.particles": particles,
@@ -125,9 +125,9 @@ def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="gr
 def costs(obs, gt, model, numbers, n_particles=300, repeats=7):
     """µs per particle of each cue alone on the same particles of the first frame."""
     from voxelmocap.body import fit_to_landmarks
-    from voxelmocap.cues import CUES, CueSet
-    from voxelmocap.cues.terms import Views
-    from voxelmocap.tracker import ground_truth_landmarks
+    from voxelmocap.pose.tracker import ground_truth_landmarks
+    from voxelmocap.score.cues import CUES, CueSet
+    from voxelmocap.score.cues.terms import Views
 
     x0 = fit_to_landmarks(model, ground_truth_landmarks(gt, numbers[0]))
     rng = np.random.default_rng(0)
@@ -225,7 +225,7 @@ def main(argv=None) -> int:
     if args.table:
         print(table(args.table))
         return 0
-    from voxelmocap.cues import CUES
+    from voxelmocap.score.cues import CUES
 
     hier_overrides = {}
     for item in args.hier:

@@ -1,6 +1,6 @@
 """Cue comparison on a real recording (the Pose2Sim demo): ``voxelmocap track --cues X`` per setting.
 
-Every setting is the product's own run (:func:`voxelmocap.pipeline.track_sequence`, what
+Every setting is the product's own run (:func:`voxelmocap.run.pipeline.track_sequence`, what
 ``voxelmocap track DEMO --out RUN/<setting> --cues X --layers L --particles P`` does: start from
 the voxels, multi-start, body fitted, limb sweep), with the same filter budget (layers ×
 particles, the joint search for every setting unless it is named in ``--hierarchical``). The
@@ -78,7 +78,7 @@ class _Costs:
 def run(demo, out, name, *, layers, particles, seed, frames, replay, hier=None):
     """Track the demo with one setting; (µs per particle, evaluations per frame, wall s).
     ``hier``: more config overrides for a hierarchical setting."""
-    import voxelmocap.pipeline as pipeline
+    import voxelmocap.run.pipeline as pipeline
     from voxelmocap.config import CuesConfig, TrackConfig, with_overrides
 
     search = "hierarchical" if name in HIERARCHICAL else "joint"

@@ -28,7 +28,7 @@ import numpy as np
 
 from voxelmocap.body import STATE_INDEX, BodyModel
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import (
+from voxelmocap.score.likelihood import (
     Measurement,
     log_likelihood,
     part_counts,

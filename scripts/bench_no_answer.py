@@ -29,7 +29,7 @@ from bench_accuracy import CLIPS, MOCAP
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
 from voxelmocap.io.reports import score_against
-from voxelmocap.pipeline import track_sequence
+from voxelmocap.run.pipeline import track_sequence
 from voxelmocap.synth import generate
 
 

@@ -6,7 +6,7 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
 * ``silhouettes``: precision / recall / IoU per camera of the silhouettes against MediaPipe's
   person mask, for the first fallback without a background plate (MOG2 learnt from the
   sequence, adapting while it segments; ``--no-mog2`` skips it) and for the plate learnt from
-  the sequence (:mod:`voxelmocap.background`) with its never-seen pixels foreground or decided
+  the sequence (:mod:`voxelmocap.measure.background`) with its never-seen pixels foreground or decided
   by GrabCut (``plate_unknown``), after the measurement stage's clean-up.
 * ``carving``: which carving rule wins on real data: the strict visual hull, one hole tolerated
   (``carve_holes = 1``) anywhere or only near the silhouette (``carve_hole_reach``) and
@@ -110,8 +110,8 @@ def silhouettes(args) -> None:
     import dataclasses
 
     from voxelmocap.config import SilhouetteConfig
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.silhouette import build_backgrounds, segment
+    from voxelmocap.measure.silhouette import build_backgrounds, segment
+    from voxelmocap.run.measurement import MeasurementRunner
 
     seq = open_demo(args.demo)
     names = list(seq.camera_names)
@@ -121,7 +121,7 @@ def silhouettes(args) -> None:
     t0 = time.perf_counter()
     plate_body = None
     if args.plate_from is not None:  # the plate of a pass learnt from an earlier run's body
-        from voxelmocap.pipeline import tracked_body
+        from voxelmocap.run.pipeline import tracked_body
 
         plate_body = tracked_body(args.plate_from, seq)
     runner = MeasurementRunner(seq, _config(args), log=print, plate_body=plate_body)
@@ -175,8 +175,8 @@ def silhouettes(args) -> None:
 
 # ---------------------------------------------------------------------- carving rules
 def carving(args) -> None:
-    from voxelmocap.background import person_component
-    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.measure.background import person_component
+    from voxelmocap.run.measurement import MeasurementRunner
 
     seq = open_demo(args.demo)
     names = list(seq.camera_names)
@@ -284,8 +284,8 @@ def landmarks(args) -> None:
 
 # ---------------------------------------------------------------------- overlays
 def overlays(args) -> None:
-    from voxelmocap.inspection import result_body_model
     from voxelmocap.io.sequence import open_sequence
+    from voxelmocap.run.inspection import result_body_model
     from voxelmocap.viz.overlay import overlay_all
 
     _, result = _result(args.run)
@@ -345,12 +345,12 @@ def diagnose(args) -> None:
     """
     from voxelmocap.body import fit_to_landmarks
     from voxelmocap.config import config_from_toml, with_overrides
-    from voxelmocap.inspection import result_body_model
     from voxelmocap.io.sequence import open_sequence
     from voxelmocap.joints import LANDMARK_NAMES
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.pipeline import tracked_body
-    from voxelmocap.tracker import BodyTracker
+    from voxelmocap.pose.tracker import BodyTracker
+    from voxelmocap.run.inspection import result_body_model
+    from voxelmocap.run.measurement import MeasurementRunner
+    from voxelmocap.run.pipeline import tracked_body
 
     if args.mediapipe_masks:
         _use_mediapipe_masks(args.ref)
@@ -428,8 +428,8 @@ def _use_mediapipe_masks(ref_dir: Path) -> None:
 
     The grid is still placed from voxelmocap's own silhouettes; only
     :meth:`MeasurementRunner.measure` of a numbered frame sees the masks."""
-    import voxelmocap.measurement as measurement
-    import voxelmocap.measurement_runner as runner_module
+    import voxelmocap.measure.stage as measurement
+    import voxelmocap.run.measurement as runner_module
 
     ref = {n: load_masks(ref_dir, n) for n in ("cam01", "cam02", "cam03", "cam04")}
     current = {"frame": None}

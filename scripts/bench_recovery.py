@@ -12,7 +12,7 @@ missing) is tracked *without the answer* (its ``Mocap_Data`` left out of a linke
 Part 2 (``--compare``): clips of the rendered benchmark set (``--bench-data``, 7 cameras, 100
 frames) tracked without the answer with ``apf`` and ``iapf`` (the detector proposal, 20 % of
 layer 1), one seed each, with μ, MMTA and frames per second; plus the detector proposal's cost
-per frame (:func:`voxelmocap.recovery.detector_proposal` timed on every frame of the first clip,
+per frame (:func:`voxelmocap.pose.recovery.detector_proposal` timed on every frame of the first clip,
 warm-started from the tracked estimate of the frame before).
 
 Usage::
@@ -36,7 +36,7 @@ from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
 from voxelmocap.io.reports import score_against
 from voxelmocap.io.results import read_result
-from voxelmocap.pipeline import track_sequence
+from voxelmocap.run.pipeline import track_sequence
 
 
 def absence_run(data: Path, out: Path, config, seed: int, tag: str) -> dict:
@@ -100,9 +100,9 @@ def compare_run(bench: Path, out: Path, action: str, strategy: str, seed: int,
 def proposal_cost(bench: Path, out: Path, action: str, seed: int) -> dict:
     """Median ms of one detector proposal per frame (warm start: the apf run's estimates)."""
     from voxelmocap.body import BodyModel
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.recovery import detector_proposal
-    from voxelmocap.tracker import noise_profile
+    from voxelmocap.pose.recovery import detector_proposal
+    from voxelmocap.pose.tracker import noise_profile
+    from voxelmocap.run.measurement import MeasurementRunner
 
     index = [a for _, a, _ in CLIPS].index(action)
     subject, seq_name = f"S{index + 1}", f"{action}_1"

@@ -25,11 +25,11 @@ from types import SimpleNamespace
 import numba
 import numpy as np
 
-from voxelmocap import _silhouette_kernels as sk
 from voxelmocap.body import BodyModel
 from voxelmocap.camera import Camera
-from voxelmocap.cues.contours import body_mask, outline_pixels
-from voxelmocap.cues.frame import CueFrame
+from voxelmocap.measure import _silhouette_kernels as sk
+from voxelmocap.score.cues.contours import body_mask, outline_pixels
+from voxelmocap.score.cues.frame import CueFrame
 
 
 def _camera(name: str, angle: float, size=(1088, 1920)) -> Camera:

@@ -25,9 +25,9 @@ import numpy as np
 
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
-from voxelmocap.pipeline import MeasurementRunner, body_model_for
+from voxelmocap.pose.tracker import BodyTracker, ground_truth_landmarks
+from voxelmocap.run.pipeline import MeasurementRunner, body_model_for
 from voxelmocap.synth import generate
-from voxelmocap.tracker import BodyTracker, ground_truth_landmarks
 
 
 def main() -> None:

@@ -18,9 +18,9 @@ import numpy as np
 from bench_accuracy import SEQUENCES as CLIPS
 
 from voxelmocap.body.shapes import MAY_BE_ZERO, BodyDimensions
-from voxelmocap.body_size import FITTED_KEYS, dimensions_from_json
 from voxelmocap.io.body_file import read_body_file
 from voxelmocap.io.results import read_result
+from voxelmocap.pose.body_size import FITTED_KEYS, dimensions_from_json
 
 
 def mean(dims, key) -> float:

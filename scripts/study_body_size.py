@@ -1,4 +1,4 @@
-"""How well the voxel likelihood recovers a subject's lengths: the fit of ``voxelmocap.body_size``
+"""How well the voxel likelihood recovers a subject's lengths: the fit of ``voxelmocap.pose.body_size``
 started from poses fitted to the ground truth with the height-scaled average adult, compared with
 the subject's body file (per-length ratio fitted / file, and the average's ratio for reference).
 
@@ -19,12 +19,12 @@ import numpy as np
 from bench_accuracy import SEQUENCES as CLIPS
 
 from voxelmocap.body import BodyModel, fit_to_landmarks
-from voxelmocap.body_size import FITTED_KEYS, fit_body_dimensions, pick_frames
 from voxelmocap.config import TrackConfig
 from voxelmocap.io.body_file import read_body_file
 from voxelmocap.io.sequence import open_sequence
 from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.measurement_runner import MeasurementRunner
+from voxelmocap.pose.body_size import FITTED_KEYS, fit_body_dimensions, pick_frames
+from voxelmocap.run.measurement import MeasurementRunner
 
 
 def length(dims, key) -> float:

@@ -2,8 +2,8 @@
 
 Renders procedural motions once (``voxelmocap.synth.generate``, cached under ``--data``), carves
 every frame once per measurement setting (occupancy cached as ``.npz`` next to the data), then runs
-the product's tracker (:class:`voxelmocap.tracker.BodyTracker`, the class
-:func:`voxelmocap.pipeline.track_sequence` steps, with the body model of ``body_model_for`` and the
+the product's tracker (:class:`voxelmocap.pose.tracker.BodyTracker`, the class
+:func:`voxelmocap.run.pipeline.track_sequence` steps, with the body model of ``body_model_for`` and the
 ground-truth initialisation) for every setting and seed, and prints one table:
 
     setting → μ (mm, mean ± sd over seeds), MMTA (%, δ = 100 mm), mean error per quarter of the
@@ -214,7 +214,7 @@ def measurements(data: Path, motion: str, config: TrackConfig):
     cached per measurement setting (surface_sigma is applied later, it does not change carving)."""
     from voxelmocap.grid import VoxelGrid
     from voxelmocap.io.humaneva import Dataset
-    from voxelmocap.pipeline import MeasurementRunner
+    from voxelmocap.run.pipeline import MeasurementRunner
 
     mc = config.measurement
     key = json.dumps({"voxel": mc.voxel_size, "min_views": mc.min_views,
@@ -247,7 +247,7 @@ def measurements(data: Path, motion: str, config: TrackConfig):
 def truth(data: Path, motion: str):
     """(sequence, ground truth, body model) as the pipeline builds them."""
     from voxelmocap.io.humaneva import Dataset
-    from voxelmocap.pipeline import body_model_for
+    from voxelmocap.run.pipeline import body_model_for
 
     seq = Dataset(data).sequence("S1", f"{ACTIONS[motion]}_1")
     gt = seq.ground_truth()
@@ -258,15 +258,15 @@ def truth(data: Path, motion: str):
 # ------------------------------------------------------------------------------------ tracking
 def track_cached(frames, occ, grid, gt, model, config: TrackConfig, seed: int,
                  profile: str | None = None):
-    """Track cached occupancies with the product's :class:`~voxelmocap.tracker.BodyTracker`.
+    """Track cached occupancies with the product's :class:`~voxelmocap.pose.tracker.BodyTracker`.
 
     ``profile`` names a candidate body of ``tracker.noise_profile`` (:data:`PROFILES`), given to
     the tracker as its ``noise_std``.
 
     Returns (states (F, 27), endpoints (F, 20, 3), filter seconds per frame).
     """
-    from voxelmocap.likelihood import Measurement
-    from voxelmocap.tracker import BodyTracker, Collector, ground_truth_landmarks, noise_profile
+    from voxelmocap.pose.tracker import BodyTracker, Collector, ground_truth_landmarks, noise_profile
+    from voxelmocap.score.likelihood import Measurement
 
     noise = None if profile is None else PROFILES[profile](model, config, noise_profile)
     kept = Collector("state", "endpoints", "seconds")
@@ -353,7 +353,7 @@ def diagnose(args, motion, overrides, seed):
     """Scores of the ground-truth pose vs the estimate, and renderer-vs-model joint offsets."""
     from voxelmocap.body import fit_to_landmarks
     from voxelmocap.joints import LANDMARK_NAMES, endpoints_to_landmarks
-    from voxelmocap.likelihood import Measurement, log_likelihood_from_scores, part_scores
+    from voxelmocap.score.likelihood import Measurement, log_likelihood_from_scores, part_scores
 
     config = make_config(overrides)
     data = dataset(args.data, motion, args.frames, args.cameras, args.data_seed)
@@ -404,7 +404,7 @@ def check(args, motion):
     import tempfile
 
     from voxelmocap.io.results import read_result
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     config = make_config({})
     data = dataset(args.data, motion, args.frames, args.cameras, args.data_seed)

@@ -84,7 +84,7 @@ def interrupt_at_third_frame(monkeypatch):
     """``run(data, out, **kwargs)``: track ``S1/Walking_1`` of ``data`` into ``out``, interrupted
     (KeyboardInterrupt) when the third frame is written."""
     from voxelmocap.io.results import ResultWriter
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     def run(data, out, **kwargs):
         real_append = ResultWriter.append
@@ -108,7 +108,7 @@ def interrupt_at_third_frame(monkeypatch):
 def interrupted_then_resumed(interrupt_at_third_frame):
     """``run(data, out, **kwargs)``: :func:`interrupt_at_third_frame`, then resumed; returns the
     resumed outcome."""
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     def run(data, out, **kwargs):
         interrupt_at_third_frame(data, out, **kwargs)

@@ -1,19 +1,19 @@
-"""Background plates learnt from the sequence (voxelmocap.background) and the real-video rules
+"""Background plates learnt from the sequence (voxelmocap.measure.background) and the real-video rules
 that go with them: noise-based thresholds, shadows, hole-tolerant carving, ghost rejection."""
 
 import numpy as np
 import pytest
 from scipy import stats
 
-from voxelmocap.background import (
+from voxelmocap.config import SilhouetteConfig
+from voxelmocap.errors import InputError
+from voxelmocap.measure.background import (
     PlateBackground,
     learn_plates,
     masked_median,
     person_component,
     plate_from_frames,
 )
-from voxelmocap.config import SilhouetteConfig
-from voxelmocap.errors import InputError
 
 
 def _textured(rng, h=120, w=160):
@@ -127,7 +127,7 @@ def test_learnt_plate_recovers_the_true_background_of_a_person_standing_half_the
 def test_plates_from_the_true_covers_are_the_true_background_where_it_was_seen(still_walk):
     import cv2
 
-    from voxelmocap.background import plates_from_covers
+    from voxelmocap.measure.background import plates_from_covers
 
     rig, frames, truth, masks, _ = still_walk
     cfg = SilhouetteConfig()
@@ -212,8 +212,8 @@ def _body(grid, *, leg=0.0, arm=0.0):
 
 
 def test_carving_tolerates_a_hole_in_one_view_only():
-    from voxelmocap.carving import Carver, carve_reference
     from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure.carving import Carver, carve_reference
 
     cams = _ring_rig()
     grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))
@@ -235,7 +235,7 @@ def test_carving_tolerates_a_hole_in_one_view_only():
 
 def test_a_blob_in_one_view_carves_into_nothing_and_is_rejected():
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.measurement import MeasurementStage
+    from voxelmocap.measure.stage import MeasurementStage
 
     cams = _ring_rig()
     grid = VoxelGrid((-1200, -1200, 0), 40.0, (60, 60, 45))
@@ -270,8 +270,8 @@ def test_person_component_keeps_the_largest_and_joins_close_fragments():
 
 def test_auto_grid_encloses_a_body_with_extended_limbs():
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.measurement import MeasurementStage
-    from voxelmocap.measurement_runner import person_grid
+    from voxelmocap.measure.stage import MeasurementStage
+    from voxelmocap.run.measurement import person_grid
 
     cams = _ring_rig()
     truth_grid = VoxelGrid((-1500, -1500, 0), 20.0, (150, 150, 100))
@@ -299,7 +299,7 @@ def test_runner_learns_the_plate_and_places_the_grid_without_background_videos(t
 
     from voxelmocap.config import TrackConfig
     from voxelmocap.io.humaneva import Dataset
-    from voxelmocap.measurement_runner import MeasurementRunner
+    from voxelmocap.run.measurement import MeasurementRunner
     from voxelmocap.synth import generate
 
     root = generate(tmp_path / "data", motion="walk", frames=24, fps=8, cameras=["C1", "C2",
@@ -326,8 +326,8 @@ def test_hole_reach_equals_the_brute_force_rule_and_drops_far_phantoms():
     mask dilated by the reach" (carve_reference on scipy-dilated masks)."""
     from scipy import ndimage
 
-    from voxelmocap.carving import Carver, carve_reference
     from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure.carving import Carver, carve_reference
 
     cams = _ring_rig()
     grid = VoxelGrid((-1200, -1200, 0), 40.0, (60, 60, 45))
@@ -391,7 +391,7 @@ def test_grabcut_decides_never_seen_pixels_from_the_frames_colours():
 
 
 def segment_with(bg, image, mode):
-    from voxelmocap.silhouette import segment
+    from voxelmocap.measure.silhouette import segment
 
     return segment(image, bg, SilhouetteConfig(plate_unknown=mode))
 
@@ -399,9 +399,9 @@ def segment_with(bg, image, mode):
 def test_the_cover_reaches_down_to_the_floor_under_a_person_whose_legs_were_not_carved():
     """Legs the first plate absorbed are in no view's silhouette and not carved; with
     ``support`` the voxels under the carved torso are covered in every view all the same."""
-    from voxelmocap.background import _cover
-    from voxelmocap.carving import Carver
     from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure.background import _cover
+    from voxelmocap.measure.carving import Carver
 
     cams = _ring_rig()
     grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))
@@ -432,7 +432,7 @@ def test_the_observation_carries_the_plates_never_seen_pixels():
     """``observation.known``: per camera the pixels whose background the learnt plate saw; None
     for a camera whose plate saw them all, and None overall when no camera has any unseen."""
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.measurement import MeasurementStage
+    from voxelmocap.measure.stage import MeasurementStage
 
     cams = _ring_rig()
     grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))

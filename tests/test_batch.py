@@ -5,12 +5,12 @@ import shutil
 import numpy as np
 import pytest
 
-from voxelmocap.batch import BatchItem, dataset_items, result_is_done
 from voxelmocap.cli import main
 from voxelmocap.config import TrackConfig, config_to_toml, with_overrides
 from voxelmocap.io.results import read_result
-from voxelmocap.pipeline import track_sequence
-from voxelmocap.tasks import run_tasks
+from voxelmocap.run.batch import BatchItem, dataset_items, result_is_done
+from voxelmocap.run.pipeline import track_sequence
+from voxelmocap.run.tasks import run_tasks
 
 #: Three short sequences of two subjects (3 frames, 3 cameras each).
 SEQUENCES = (("S1", "walk", 1, "Walking_1"), ("S1", "jog", 1, "Jog_1"),

@@ -4,7 +4,10 @@ import pytest
 from voxelmocap.body import BodyModel, fit_to_landmarks
 from voxelmocap.body.shapes import BodyDimensions
 from voxelmocap.body.state import STATE_INDEX
-from voxelmocap.body_size import (
+from voxelmocap.config import TrackConfig, with_overrides
+from voxelmocap.errors import InputError
+from voxelmocap.grid import VoxelGrid
+from voxelmocap.pose.body_size import (
     FITTED_KEYS,
     compass_combined,
     dimensions_from_factors,
@@ -14,10 +17,7 @@ from voxelmocap.body_size import (
     pick_frames,
     standing_height,
 )
-from voxelmocap.config import TrackConfig, with_overrides
-from voxelmocap.errors import InputError
-from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import VoxelObservation, rasterise
+from voxelmocap.score.likelihood import VoxelObservation, rasterise
 
 DEG = np.pi / 180.0
 
@@ -184,7 +184,7 @@ def test_fit_keeps_lengths_not_asked_for():
 def test_track_with_a_fitted_body_records_it_and_resumes(walk_without_answer, tmp_path,
                                                          interrupted_then_resumed):
     from voxelmocap.io.results import read_result
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     config = with_overrides(TrackConfig(), **{
         "filter.layers": 3, "filter.particles": 150, "init.multistart_frames": 3,

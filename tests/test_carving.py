@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from voxelmocap.camera import Camera, fov_radius, visible
-from voxelmocap.carving import Carver, EmptySilhouetteWarning, carve, carve_reference
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
 from voxelmocap.io.calibration import read_rig
+from voxelmocap.measure.carving import Carver, EmptySilhouetteWarning, carve, carve_reference
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 SPHERE_C = np.array([150.0, -80.0, 1000.0])

@@ -5,14 +5,14 @@ import pytest
 from scipy import stats
 
 from voxelmocap.body import PART_NAMES
-from voxelmocap.confidence import (
+from voxelmocap.joints import LANDMARK_NAMES
+from voxelmocap.pose.confidence import (
     LANDMARK_PARTS,
     landmark_confidence,
     landmark_spread,
     landmark_support,
     within_probability,
 )
-from voxelmocap.joints import LANDMARK_NAMES
 
 
 def test_spread_is_the_weighted_rms_distance():
@@ -64,8 +64,8 @@ def test_tracker_records_spread_and_confidence():
     from voxelmocap.body import BodyModel
     from voxelmocap.config import TrackConfig, with_overrides
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.likelihood import Measurement, rasterise
-    from voxelmocap.tracker import BodyTracker
+    from voxelmocap.pose.tracker import BodyTracker
+    from voxelmocap.score.likelihood import Measurement, rasterise
 
     model = BodyModel()
     grid = VoxelGrid((-1000.0, -1000.0, 0.0), 40.0, (50, 50, 50))

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from voxelmocap.body import BodyModel
-from voxelmocap.detect import find_extremities
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import rasterise
+from voxelmocap.measure.detect import find_extremities
+from voxelmocap.score.likelihood import rasterise
 
 #: Landmarks at the ends of the body: head top, L/R wrist, L/R ankle (LANDMARK_NAMES order).
 ENDS = [14, 4, 7, 10, 13]

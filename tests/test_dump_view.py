@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from humaneva_fixture import _write_avi, frame_image, make_tiny_dataset
 
-from voxelmocap.carving import Carver
 from voxelmocap.cli import main
 from voxelmocap.io.calibration import read_rig
 from voxelmocap.io.voxels import VoxelDump
-from voxelmocap.surface import smooth_surface, surface_voxels
+from voxelmocap.measure.carving import Carver
+from voxelmocap.measure.surface import smooth_surface, surface_voxels
 
 
 @pytest.fixture(scope="module")

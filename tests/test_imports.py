@@ -77,10 +77,71 @@ def test_the_cycle_finder_finds_cycles():
 def test_the_graph_sees_function_level_and_relative_imports():
     graph = import_graph()
     assert "voxelmocap.camera" in graph["voxelmocap.io.calibration"]
-    assert "voxelmocap._carving_kernels" in graph["voxelmocap.carving"]  # from . import X as Y
+    # from . import X as Y
+    assert "voxelmocap.measure._carving_kernels" in graph["voxelmocap.measure.carving"]
     assert "voxelmocap.io.body_file" in graph["voxelmocap.commands.info"]  # inside a function
 
 
 def test_no_import_cycle_in_the_package():
     cycle = find_cycle(import_graph())
     assert cycle is None, " → ".join(cycle)
+
+
+#: The layers, bottom up: a module imports only its own layer and the layers below it. The
+#: foundations know no wing; ``io`` turns files into their objects; ``config`` (validated
+#: settings, read through ``io.toml``) sits on both; the science wings follow the data path
+#: (measure → score → pose); ``viz`` draws; ``run`` loops over sequences and touches files;
+#: the command line is the top. ``docs/architecture.md`` draws the same order.
+LAYERS = (
+    ("foundations", ("errors", "logs", "joints", "frames", "smoothing", "camera", "grid",
+                     "evaluation", "body", "tracking")),
+    ("io", ("io",)),
+    ("config", ("config",)),
+    ("synth", ("synth",)),
+    ("measure", ("measure",)),
+    ("score", ("score",)),
+    ("pose", ("pose",)),
+    ("viz", ("viz",)),
+    ("run", ("run",)),
+    ("commands", ("commands", "cli")),
+)
+
+
+def layer_of(module: str) -> int:
+    """The index in :data:`LAYERS` of a package module (``voxelmocap`` itself, which holds only
+    its version and imports nothing, is a foundation)."""
+    parts = module.split(".")
+    if len(parts) == 1:
+        return 0
+    for i, (_, roots) in enumerate(LAYERS):
+        if parts[1] in roots:
+            return i
+    raise AssertionError(f"{module} belongs to no layer: add it to LAYERS")
+
+
+def test_the_layer_check_sees_an_upward_import():
+    assert layer_of("voxelmocap.measure.carving") < layer_of("voxelmocap.run.pipeline")
+    upward = {"voxelmocap.grid": {"voxelmocap.run.pipeline"}}
+    assert upward_imports(upward) == ["voxelmocap.grid (foundations) imports "
+                                      "voxelmocap.run.pipeline (run)"]
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    out = []
+    for module, deps in sorted(graph.items()):
+        for dep in sorted(deps):
+            if layer_of(dep) > layer_of(module):
+                out.append(f"{module} ({LAYERS[layer_of(module)][0]}) imports {dep} "
+                           f"({LAYERS[layer_of(dep)][0]})")
+    return out
+
+
+def test_every_module_belongs_to_a_layer():
+    graph = import_graph()
+    assert graph["voxelmocap"] == set()  # the package's face: a foundation only while it is empty
+    for module in graph:
+        layer_of(module)
+
+
+def test_imports_only_go_down_the_layers():
+    assert upward_imports(import_graph()) == []

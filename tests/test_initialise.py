@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from voxelmocap.body import BodyModel
-from voxelmocap.detect import find_extremities
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.initialise import estimate_height, initial_pose
-from voxelmocap.likelihood import Measurement, log_likelihood, rasterise
+from voxelmocap.measure.detect import find_extremities
+from voxelmocap.pose.initialise import estimate_height, initial_pose
+from voxelmocap.score.likelihood import Measurement, log_likelihood, rasterise
 
 GRID = VoxelGrid((-1500.0, -1500.0, -200.0), 20.0, (150, 150, 120))
 

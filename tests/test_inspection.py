@@ -9,7 +9,7 @@ import pytest
 
 from voxelmocap.body import BodyDimensions, BodyModel
 from voxelmocap.errors import InputError
-from voxelmocap.inspection import result_body_model
+from voxelmocap.run.inspection import result_body_model
 
 SEQ = SimpleNamespace(body_file=None)      # no body file, no ground truth: the average adult
 

@@ -4,7 +4,7 @@ import pytest
 from voxelmocap.body import STATE_INDEX, BodyModel
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import (
+from voxelmocap.score.likelihood import (
     QMAX,
     Measurement,
     log_likelihood,
@@ -273,7 +273,7 @@ def test_coverage_term_against_the_rasterised_body():
     """u = 1 − (Σ_parts Occ − ½ Σ_parts DO) / |V^R|, recomputed voxel by voxel from the
     reference rasterisation (n_v parts containing voxel v): Σ_{v occupied} n_v − ½ Σ_{n_v ≥ 2} n_v;
     the term is added to log_likelihood and is 0 at weight 0."""
-    from voxelmocap.likelihood import coverage_log_likelihood
+    from voxelmocap.score.likelihood import coverage_log_likelihood
 
     rng = np.random.default_rng(61)
     model = BodyModel()
@@ -302,7 +302,7 @@ def test_coverage_term_against_the_rasterised_body():
 def test_score_kernels_equal_the_numpy_expressions():
     """Counts → scores and the coverage term, bit for bit as the NumPy expressions compute them
     (empty parts included, and a leading batch shape for the scores)."""
-    from voxelmocap.likelihood import QMAX, coverage_log_likelihood, scores_from_counts
+    from voxelmocap.score.likelihood import QMAX, coverage_log_likelihood, scores_from_counts
 
     rng = np.random.default_rng(36)
     counts = rng.integers(0, 900, (300, 10, 6))

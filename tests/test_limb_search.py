@@ -1,12 +1,12 @@
-"""The global limb search of a start (voxelmocap.limb_search)."""
+"""The global limb search of a start (voxelmocap.pose.limb_search)."""
 
 import numpy as np
 import pytest
 
 from voxelmocap.body import BodyModel
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import Measurement, log_likelihood, rasterise
-from voxelmocap.limb_search import LIMBS, sweep_limbs
+from voxelmocap.pose.limb_search import LIMBS, sweep_limbs
+from voxelmocap.score.likelihood import Measurement, log_likelihood, rasterise
 
 DEG = np.pi / 180
 GRID = VoxelGrid((-1000.0, -1000.0, 0.0), 30.0, (67, 67, 67))
@@ -118,7 +118,7 @@ def test_swapped_limbs_exchange_angles_and_places():
     each knee and ankle where the other leg's were (to within the joint limits' reach), and
     the rest of the body is untouched in both."""
     from voxelmocap.joints import LANDMARK_NAMES as L
-    from voxelmocap.limb_search import swapped_limbs
+    from voxelmocap.pose.limb_search import swapped_limbs
 
     model = BodyModel()
     x = _crossed_legs(model)
@@ -142,7 +142,7 @@ def test_the_swap_uncrosses_legs_a_one_limb_sweep_cannot():
     """Truth: the voxels of the uncrossed legs (the crossed pose's legs moved to each other's
     places); the start has them crossed. A sweep of one leg with the other held stays crossed
     (either leg alone would overlap the other); with ``swaps`` the legs end near the truth."""
-    from voxelmocap.limb_search import swapped_limbs
+    from voxelmocap.pose.limb_search import swapped_limbs
 
     model = BodyModel()
     crossed = _crossed_legs(model)

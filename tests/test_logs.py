@@ -48,10 +48,10 @@ def test_quiet_verbose_and_the_log_file(walk_dataset, tmp_path, capsys):
     stamp = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} ")
     assert all(stamp.match(line) for line in lines), lines
     # the file holds every level, whatever the console showed: the quiet run's INFO line too
-    assert any("INFO    voxelmocap.pipeline:" in line and "is already complete" in line
+    assert any("INFO    voxelmocap.run.pipeline:" in line and "is already complete" in line
                for line in lines)
     assert sum("initialised from the ground truth of frame 1" in line for line in lines) == 2
-    assert any("DEBUG   voxelmocap.pipeline: result " in line for line in lines)
+    assert any("DEBUG   voxelmocap.run.pipeline: result " in line for line in lines)
     assert any("voxelmocap.commands.track: results: " in line for line in lines)
 
 
@@ -71,19 +71,19 @@ def test_bad_input_stays_one_line_and_writes_no_log(walk_dataset, tmp_path, caps
 def test_the_log_is_held_until_the_run_starts(tmp_path):
     logs.configure(0, log_dir=tmp_path / "run", argv=["track", "x"])
     try:
-        logging.getLogger("voxelmocap.pipeline").info("before")
+        logging.getLogger("voxelmocap.run.pipeline").info("before")
         assert not (tmp_path / "run").exists()
         logs.run_started()
         path = tmp_path / "run" / logs.LOG_NAME
         assert "before" in path.read_text()
-        logging.getLogger("voxelmocap.pipeline").info("after")
-        assert path.read_text().splitlines()[-1].endswith("voxelmocap.pipeline: after")
+        logging.getLogger("voxelmocap.run.pipeline").info("after")
+        assert path.read_text().splitlines()[-1].endswith("voxelmocap.run.pipeline: after")
     finally:
         logs.finish(False)
     # finished: the package logger is silent again and the file is closed
     assert not any(isinstance(h, logs.RunLogHandler) for h in logs.PACKAGE.handlers)
     logs.configure(0, log_dir=tmp_path / "other", argv=["track", "y"])
-    logging.getLogger("voxelmocap.pipeline").info("dropped")
+    logging.getLogger("voxelmocap.run.pipeline").info("dropped")
     logs.finish(False)  # never started, failed: nothing written
     assert not (tmp_path / "other").exists()
 
@@ -93,8 +93,8 @@ def test_messages_do_not_break_a_progress_bar(capsys):
     try:
         with tqdm(total=3, file=sys.stdout, ascii=True) as bar:
             bar.update(1)
-            logging.getLogger("voxelmocap.pipeline").info("hello")
-            logging.getLogger("voxelmocap.pipeline").warning("careful")
+            logging.getLogger("voxelmocap.run.pipeline").info("hello")
+            logging.getLogger("voxelmocap.run.pipeline").warning("careful")
             bar.update(1)
     finally:
         logs.finish(True)

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from voxelmocap.carving import Carver
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
 from voxelmocap.io.calibration import read_rig
-from voxelmocap.measurement import MeasurementStage
-from voxelmocap.silhouette import SilhouetteConfig, build_backgrounds
-from voxelmocap.surface import smooth_surface, surface_voxels
+from voxelmocap.measure.carving import Carver
+from voxelmocap.measure.silhouette import SilhouetteConfig, build_backgrounds
+from voxelmocap.measure.stage import MeasurementStage
+from voxelmocap.measure.surface import smooth_surface, surface_voxels
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
 CENTRE, RADIUS = np.array([100.0, 50.0, 900.0]), 400.0
@@ -187,7 +187,7 @@ def test_prefix_kernel_equals_numpy_on_a_masked_scene():
     """The parallel prefix-sum kernel against NumPy's quantise + cumsum, with a scene mask that
     is not all ones and smoothed values on rounding ties (rint rounds them to even)."""
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.observation import QMAX, VoxelObservation
+    from voxelmocap.measure.observation import QMAX, VoxelObservation
 
     rng = np.random.default_rng(7)
     grid = VoxelGrid((0.0, 0.0, 0.0), 20.0, (9, 7, 23))

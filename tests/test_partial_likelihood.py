@@ -5,9 +5,9 @@ import pytest
 
 from voxelmocap.body import BodyModel
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.hierarchy import BODY_PARTITIONS
-from voxelmocap.likelihood import Measurement, log_likelihood, part_counts, rasterise
-from voxelmocap.partial_likelihood import PartialScorer
+from voxelmocap.pose.hierarchy import BODY_PARTITIONS
+from voxelmocap.score.likelihood import Measurement, log_likelihood, part_counts, rasterise
+from voxelmocap.score.partial import PartialScorer
 
 DEG = np.pi / 180
 

@@ -8,7 +8,7 @@ from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
 from voxelmocap.io.reports import evaluate_files
 from voxelmocap.io.results import read_result
-from voxelmocap.pipeline import parse_frame_range, track_sequence
+from voxelmocap.run.pipeline import parse_frame_range, track_sequence
 
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150})
 
@@ -37,7 +37,7 @@ def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
     np.testing.assert_array_equal(result.frames, np.arange(1, 9))
     assert result.state.shape == (8, 27) and result.part_scores.shape == (8, 10, 4)
     # one ESS per annealing layer: the hierarchical search's trunk and limb layers
-    from voxelmocap.hierarchy import body_partitions
+    from voxelmocap.pose.hierarchy import body_partitions
     assert result.ess.shape == (8, sum(p.layers for p in body_partitions(SMALL.filter)))
     (seq,) = evaluate_files(tmp_path / "run", walk_dataset)
     # The renderer's body is not the tracker's cones, and 4 cameras carve a fat visual hull:
@@ -122,7 +122,7 @@ def test_track_bad_input_is_one_line(walk_dataset, finished_run, tmp_path, capsy
 
 # 8 frames of a slow walk are too few for MOG2 to separate the person from the room (on a 60-frame
 # walk the fallback tracks at μ ≈ 160 mm); this checks the mechanism, not the masks.
-@pytest.mark.filterwarnings("ignore::voxelmocap.carving.EmptySilhouetteWarning")
+@pytest.mark.filterwarnings("ignore::voxelmocap.measure.carving.EmptySilhouetteWarning")
 def test_without_background_videos_learns_the_plate_or_uses_mog2(walk_dataset, tmp_path):
     import shutil
 
@@ -336,8 +336,8 @@ def test_multistart_keeps_the_likeliest_start(walk_without_answer, tmp_path):
     # Unit level: each start is an independent tracker; the kept one is the likeliest and its
     # records equal a lone tracker started from the same pose with the same random stream.
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.likelihood import Measurement, rasterise
-    from voxelmocap.tracker import BodyTracker, MultiStart
+    from voxelmocap.pose.tracker import BodyTracker, MultiStart
+    from voxelmocap.score.likelihood import Measurement, rasterise
 
     model = BodyModel()
     grid = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))

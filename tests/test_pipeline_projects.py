@@ -21,8 +21,8 @@ from voxelmocap.io.humaneva import Dataset
 from voxelmocap.io.importer import import_sequence
 from voxelmocap.io.project import Project
 from voxelmocap.io.results import read_result
-from voxelmocap.measurement_runner import MeasurementRunner
-from voxelmocap.pipeline import track_sequence
+from voxelmocap.run.measurement import MeasurementRunner
+from voxelmocap.run.pipeline import track_sequence
 
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 60})
 CAMERAS = ["C1", "C2", "C3"]

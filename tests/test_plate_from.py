@@ -32,10 +32,10 @@ def test_the_plate_from_the_true_body_is_the_empty_scene(walk_dataset, no_plate)
     """The body fitted to the ground truth as the cover: the plate is the renderer's empty scene
     (its background videos, removed from the tracked copy) wherever the walk uncovered it."""
     from voxelmocap.body.fit import fit_to_landmarks
-    from voxelmocap.body_cover import TrackedBody
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.pipeline import body_model_for
-    from voxelmocap.tracker import ground_truth_landmarks
+    from voxelmocap.pose.body_cover import TrackedBody
+    from voxelmocap.pose.tracker import ground_truth_landmarks
+    from voxelmocap.run.measurement import MeasurementRunner
+    from voxelmocap.run.pipeline import body_model_for
 
     data, _ = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -69,9 +69,9 @@ def test_pixels_the_body_left_free_too_rarely_are_unknown(no_plate):
     what the plate's other rules (samples that spread: unknown) said without the share."""
     import cv2
 
-    from voxelmocap.body_cover import TrackedBody, plate_covers_of
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.pipeline import tracked_body
+    from voxelmocap.pose.body_cover import TrackedBody, plate_covers_of
+    from voxelmocap.run.measurement import MeasurementRunner
+    from voxelmocap.run.pipeline import tracked_body
 
     data, run = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -99,7 +99,7 @@ def test_pixels_the_body_left_free_too_rarely_are_unknown(no_plate):
 
 
 def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
-    from voxelmocap.pipeline import tracked_body
+    from voxelmocap.run.pipeline import tracked_body
 
     data, run = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -135,7 +135,7 @@ def test_tracked_body_refuses_another_sequence_and_too_few_frames(no_plate, tmp_
     import h5py
 
     from voxelmocap.errors import InputError
-    from voxelmocap.pipeline import tracked_body
+    from voxelmocap.run.pipeline import tracked_body
 
     data, run = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -156,7 +156,7 @@ def test_tracked_body_refuses_another_sequence_and_too_few_frames(no_plate, tmp_
 def test_tracked_body_measured_on_the_ground_truth_is_that_body(no_plate, tmp_path):
     """Without a body file the first run measured its body on the ground truth (and recorded no
     dimensions): the cover is drawn with that body, not the average adult."""
-    from voxelmocap.pipeline import body_model_for, tracked_body
+    from voxelmocap.run.pipeline import body_model_for, tracked_body
 
     data, run = no_plate
     bare = tmp_path / "bare"
@@ -248,8 +248,8 @@ def test_the_passes_are_a_run_and_a_plate_from_run(long_walk, tmp_path):
     assert all(r.attrs["init_method"].startswith("the ground truth of frame 1")
                for r in (first, second, passes))
     # --all counts the result of several passes as done (it records the final pass's config)
-    from voxelmocap.batch import result_is_done
     from voxelmocap.config import config_to_toml
+    from voxelmocap.run.batch import result_is_done
 
     config = config_to_toml(SMALL)
     path = run / "S1" / "Walking_1.h5"
@@ -318,7 +318,7 @@ def no_answer_run(long_walk, link_without_answer, tmp_path_factory):
     """``long_walk``'s data without ``Mocap_Data`` (no ground truth, no body file: a user's
     case), its run at the defaults (three passes), and ``(phrase, mean)`` of every
     ``BodyTracker.start`` of that run (the mean its first particles were drawn around)."""
-    from voxelmocap.tracker import BodyTracker
+    from voxelmocap.pose.tracker import BodyTracker
 
     root = tmp_path_factory.mktemp("noanswer")
     data = link_without_answer(long_walk[0], root / "data")
@@ -352,7 +352,7 @@ def test_the_third_pass_starts_where_the_second_did(no_answer_run):
                              "ranges (")
     assert final.attrs["init_method"] == phrase
     # pass 2's pose, the arms searched again on this pass's first frame (CONTINUED_SEARCH)
-    from voxelmocap.limb_search import LIMBS
+    from voxelmocap.pose.limb_search import LIMBS
 
     arms = np.r_[LIMBS["l_arm"][0], LIMBS["r_arm"][0]]
     rest = np.setdiff1d(np.arange(len(mean)), arms)
@@ -396,7 +396,7 @@ def test_a_continued_pass_resumes_where_it_was_interrupted(no_answer_run, tmp_pa
 def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monkeypatch):
     """Pass 2 saw the person too rarely: the last pass tracks as pass 2 did (plate from pass
     1's body, start searched from the voxels), not continuing pass 1."""
-    import voxelmocap.pipeline as pipeline
+    import voxelmocap.run.pipeline as pipeline
 
     data, _, _ = no_answer_run
     out = tmp_path / "run"
@@ -418,7 +418,7 @@ def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monk
 def test_which_passes_continue_the_previous_one(first, expected):
     """``[init] previous_pass_start``: pass k continues from this one on (0: never); the first
     pass has no previous pass to continue."""
-    from voxelmocap.pipeline import _continues
+    from voxelmocap.run.pipeline import _continues
 
     config = with_overrides(TrackConfig(), **{"init.previous_pass_start": first})
     got = [_continues(config, k) for k in (1, 2, 3, 4)]
@@ -429,7 +429,7 @@ def test_a_pass_that_saw_the_person_too_rarely_is_repeated(long_walk, tmp_path, 
                                                           monkeypatch):
     """A first pass with the person in fewer than MIN_BODY_FRAMES frames gives no plate from
     its body: the last pass tracks as the first did, and says why."""
-    import voxelmocap.pipeline as pipeline
+    import voxelmocap.run.pipeline as pipeline
 
     data, run = long_walk
     out = tmp_path / "run"
@@ -458,10 +458,10 @@ def test_short_runs_take_one_pass(no_plate, tmp_path):
 def test_dump_measures_with_the_plate_from_a_run(no_plate, tmp_path):
     """``dump --plate-from``: the silhouettes a final pass measured (the plate from the body),
     the run recorded in the dump; a pass folder holding the result directly is accepted."""
-    from voxelmocap.body_cover import TrackedBody
     from voxelmocap.io.voxels import VoxelDump
-    from voxelmocap.measurement_runner import MeasurementRunner
-    from voxelmocap.pipeline import tracked_body
+    from voxelmocap.pose.body_cover import TrackedBody
+    from voxelmocap.run.measurement import MeasurementRunner
+    from voxelmocap.run.pipeline import tracked_body
 
     data, run = no_plate
     folder = tmp_path / "pass1"

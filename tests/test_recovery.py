@@ -9,15 +9,15 @@ from scipy import stats
 from voxelmocap.body import BodyModel
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import Measurement, rasterise
-from voxelmocap.recovery import (
+from voxelmocap.pose.recovery import (
     LostTrack,
     MixtureProposal,
     body_volume,
     detector_proposal,
     person_presence,
 )
-from voxelmocap.tracker import BodyTracker
+from voxelmocap.pose.tracker import BodyTracker
+from voxelmocap.score.likelihood import Measurement, rasterise
 
 MODEL = BodyModel()
 GRID = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
@@ -101,8 +101,8 @@ def test_detector_proposal_moves_the_limbs_to_the_detected_ends():
     assert len(mix) == 2 and mix.labels[1] == "left/right swapped fit"
     assert len(detector_proposal(obs, MODEL, std=0.01, previous=previous)) == 1
     # The detector runs once per observation (the starts of a MultiStart share it).
-    from voxelmocap.detect import find_extremities
-    from voxelmocap.recovery import extremities_of
+    from voxelmocap.measure.detect import find_extremities
+    from voxelmocap.pose.recovery import extremities_of
 
     assert extremities_of(obs) is extremities_of(obs)
     np.testing.assert_array_equal(extremities_of(obs).points,
@@ -279,7 +279,7 @@ ABSENCE_CONFIG = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.pa
 
 @pytest.fixture(scope="module")
 def absence_run(absence_dataset, tmp_path_factory):
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     run = tmp_path_factory.mktemp("absence_run")
     messages = []
@@ -311,7 +311,7 @@ def test_a_short_absence_is_flagged_and_the_track_restarts(absence_dataset, abse
 def test_a_run_interrupted_during_an_absence_resumes_exactly(absence_dataset, absence_run,
                                                               tmp_path, monkeypatch):
     from voxelmocap.io.results import ResultWriter, read_result
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     real_append = ResultWriter.append
     calls = {"n": 0}
@@ -353,7 +353,7 @@ def test_frames_without_a_person_before_the_start_wait_for_it(absence_dataset, t
                                                               link_without_answer):
     """Frames 4–6 are absent: a run of frames 4–10 without the answer starts at frame 7."""
     from voxelmocap.io.results import read_result
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     stripped = link_without_answer(absence_dataset, tmp_path / "data")
     config = with_overrides(ABSENCE_CONFIG, **{"init.multistart_frames": 2})
@@ -376,7 +376,7 @@ def test_the_lost_track_rule_watches_the_voxel_cue_not_the_fused_value(monkeypat
     # drop on the voxel cue's scale, so the rule must watch that cue's value. The fused value is
     # simulated: the voxel cue's value, 200 lower on three frames in a row (the demo's fused
     # value spans -1000 to -765 between its 5th and 95th percentiles on a track that is fine).
-    from voxelmocap.likelihood import log_likelihood_from_scores
+    from voxelmocap.score.likelihood import log_likelihood_from_scores
 
     states = walk(12)
     frames = [seen(s) for s in states]
@@ -398,7 +398,7 @@ def test_the_lost_track_rule_watches_the_voxel_cue_not_the_fused_value(monkeypat
         assert tracker.lost_track_value(r) == pytest.approx(
             float(log_likelihood_from_scores(r.part_scores, variances=tracker.variances)))
     # ... and the fused value alone would have fired on this good track
-    from voxelmocap.recovery import LostTrack
+    from voxelmocap.pose.recovery import LostTrack
 
     rc = config.recovery
     rule = LostTrack(window=rc.lost_window, drop=rc.lost_drop, empty_max=rc.lost_empty,
@@ -413,7 +413,7 @@ def test_the_lost_track_rule_watches_the_voxel_cue_not_the_fused_value(monkeypat
 def test_the_value_the_rule_watches_with_and_without_the_voxel_cue(weights, voxel_scale):
     import types
 
-    from voxelmocap.likelihood import log_likelihood_from_scores
+    from voxelmocap.score.likelihood import log_likelihood_from_scores
 
     config = with_overrides(TINY, **{"cues.weights": weights})
     tracker = BodyTracker(MODEL, config, seed=0)

@@ -13,7 +13,7 @@ import pytest
 from scipy import ndimage
 
 from voxelmocap.errors import InputError
-from voxelmocap.silhouette import (
+from voxelmocap.measure.silhouette import (
     GaussianBackground,
     Mog2Background,
     SilhouetteConfig,

@@ -7,9 +7,9 @@ import pytest
 from scipy import ndimage
 
 from voxelmocap.camera import Camera
-from voxelmocap.carving import Carver
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.surface import _bounding_box, smooth_surface, surface_voxels
+from voxelmocap.measure.carving import Carver
+from voxelmocap.measure.surface import _bounding_box, smooth_surface, surface_voxels
 
 
 def _shell(shape, lo, hi):

@@ -6,7 +6,8 @@ import pytest
 from voxelmocap.errors import InputError
 from voxelmocap.io.body_pose_xml import read_body_pose_xml
 from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.sweep import SweepCell, best_cell, plan_cells, run_sweep
+from voxelmocap.evaluation import best_cell
+from voxelmocap.run.sweep import SweepCell, plan_cells, run_sweep
 from voxelmocap.viz.plots import plot_sweep_heatmaps
 
 
@@ -72,7 +73,7 @@ def test_two_cell_sweep_on_a_local_dask_cluster(walk_dataset, tmp_path):
 
 
 def test_changed_shared_settings_are_refused(tmp_path):
-    import voxelmocap.sweep as sweep
+    import voxelmocap.run.sweep as sweep
 
     out = tmp_path / "sweep"
     sweep._check_settings(out, {"frames": "1:2", "delta_mm": 100.0})

@@ -9,13 +9,13 @@ from voxelmocap.body import BodyModel
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import Measurement, log_likelihood, part_scores, rasterise
-from voxelmocap.tracker import (
+from voxelmocap.pose.tracker import (
     BodyTracker,
     Collector,
     build_dynamics,
     noise_profile,
 )
+from voxelmocap.score.likelihood import Measurement, log_likelihood, part_scores, rasterise
 from voxelmocap.tracking import RandomWalk, TwoStateElbow, VelocityModel
 
 # the joint search (paper 002) with no settling: these tests check the tracker against the
@@ -68,7 +68,7 @@ def test_record_describes_the_estimate(walk):
 def test_tracker_equals_the_filter_it_assembles(walk):
     """The tracker adds nothing to the filter's numbers: same seed, same estimates."""
     from voxelmocap.body import fit_to_landmarks
-    from voxelmocap.tracker import build_filter
+    from voxelmocap.pose.tracker import build_filter
 
     states, obs = walk
     gt = MODEL.landmarks(states[:1])[0]
@@ -168,7 +168,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
     import dataclasses
 
     from voxelmocap.config import config_from_toml
-    from voxelmocap.tracker import build_filter
+    from voxelmocap.pose.tracker import build_filter
 
     text = """
     [filter]
@@ -367,7 +367,7 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
     record = tracker.step(seen)
     wrist = np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4])
     assert wrist < 60.0, wrist
-    from voxelmocap.limb_search import sweep_limbs
+    from voxelmocap.pose.limb_search import sweep_limbs
 
     found, _ = sweep_limbs(seen, MODEL, MODEL.default_state(), variances=(0.01, 0.01, 0.1, 0.1),
                            coverage=TrackConfig().likelihood.coverage, sweeps=1)
@@ -380,7 +380,7 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
 def test_the_periodic_sweep_keeps_a_limb_whose_gain_is_below_limb_sweep_gain():
     """The same lost arm with ``filter.limb_sweep_gain`` above what finding it gains: the sweep
     leaves the arm hanging (the 40-particle step cannot reach it by itself either)."""
-    from voxelmocap.limb_search import sweep_limbs
+    from voxelmocap.pose.limb_search import sweep_limbs
 
     truth = _lost_arm_truth()
     seen = Measurement(rasterise(MODEL, truth[None], LOST_ARM_GRID) > 0, LOST_ARM_GRID)
@@ -396,7 +396,7 @@ def test_the_periodic_sweep_is_skipped_when_the_hull_is_several_times_the_body()
     """The lost arm again, with a block of occupied voxels far from the body that takes the
     occupied volume to about three times the body's: at ``limb_sweep_max_hull = 2`` the sweep
     does not run (the arm stays hanging); allowed any hull, it finds the arm as before."""
-    from voxelmocap.recovery import body_volume
+    from voxelmocap.pose.recovery import body_volume
 
     truth = _lost_arm_truth()
     occupancy = rasterise(MODEL, truth[None], LOST_ARM_GRID) > 0
@@ -413,8 +413,8 @@ def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
     """``[likelihood] coverage`` is in the joint filter's callable, in every partition of the
     hierarchical search (full and partial scoring) and in the limb sweep's scores: each equals
     log_likelihood(..., coverage=w) called directly."""
-    from voxelmocap.hierarchy import BODY_PARTITIONS
-    from voxelmocap.limb_search import sweep_limbs
+    from voxelmocap.pose.hierarchy import BODY_PARTITIONS
+    from voxelmocap.pose.limb_search import sweep_limbs
 
     states, obs = walk
     w = 250.0

@@ -62,7 +62,7 @@ def _choice(*options, default):
 
 @dataclass(frozen=True)
 class SilhouetteConfig:
-    """Background subtraction (:mod:`voxelmocap.silhouette`): model, thresholds, shadows, clean-up.
+    """Background subtraction (:mod:`voxelmocap.measure.silhouette`): model, thresholds, shadows, clean-up.
 
     The TOML table ``[measurement.silhouette]``; per-camera thresholds are tables too
     (``camera_risk.BW1 = 1e6``). Built directly (``SilhouetteConfig(method="mog2")``) it is
@@ -71,7 +71,7 @@ class SilhouetteConfig:
 
     #: ``gaussian``: the HumanEva toolkit's per-pixel Gaussians learnt from background videos;
     #: ``mog2``: OpenCV's adaptive mixture (Zivkovic), learnt from background frames and online
-    #: ``plate``: a static plate with per-pixel noise (:mod:`voxelmocap.background`), from the
+    #: ``plate``: a static plate with per-pixel noise (:mod:`voxelmocap.measure.background`), from the
     #: background videos or, without them, learnt from the sequence itself (also what
     #: ``gaussian`` falls back to when a camera has no background video)
     method: str = _choice("gaussian", "mog2", "plate", default="gaussian")
@@ -234,7 +234,7 @@ class LikelihoodConfig:
     #: 62.4 → 62.0 mm (MMTA 86.9 → 90.2 %), seed 0
     variances: tuple[float, float, float, float] = (0.01, 0.1, 0.1, 0.1)
     #: weight w of the coverage term ``−½ w u² / 0.1``, u the share of occupied voxels no part
-    #: contains (``voxelmocap.likelihood.coverage_log_likelihood``): paper 002's scores judge
+    #: contains (``voxelmocap.score.likelihood.coverage_log_likelihood``): paper 002's scores judge
     #: each part by the voxels it contains, so a limb folded into its neighbour's voxels lost
     #: nothing for the real limb's voxels it left. 0: the paper's likelihood alone. The start's
     #: hypotheses are scored without it (``BodyTracker.initial_state``). Five clips without the
@@ -259,7 +259,7 @@ class FilterConfig:
     layers: int = 6
     particles: int = 600
     #: ``iapf``: a share of layer 1 comes from the detector proposal (``iapf_fractions``,
-    #: ``[recovery]``; ``voxelmocap.recovery.detector_proposal``)
+    #: ``[recovery]``; ``voxelmocap.pose.recovery.detector_proposal``)
     strategy: str = _choice("apf", "sir", "iapf", default="apf")
     #: target share of surviving particles per layer (β by bisection), in (0, 1]. Measured: 0.3
     #: helps a walk (μ 59 → 46 mm, 5 seeds) and a jog (60 → 57 mm) but hurts a box sequence
@@ -300,7 +300,7 @@ class FilterConfig:
     #: ``joint``: every layer searches all 27 dimensions (paper 002); ``hierarchical`` (with the
     #: ``apf`` strategy; ``sir`` and ``iapf`` always search jointly): the root,
     #: trunk and head first, then each limb with the rest held at the estimate, the limbs scored
-    #: by exact partial re-scoring (``voxelmocap.hierarchy``; ``layers``/``particles`` then do
+    #: by exact partial re-scoring (``voxelmocap.pose.hierarchy``; ``layers``/``particles`` then do
     #: not apply). Screened without the answer (walk, jog, box, 40 frames, seed 0; with
     #: ``refine_evaluations`` 40 and ``init.settle_steps`` 5): mean μ 89 mm against the joint
     #: search's 115 mm; docs/benchmarks.md, "Accuracy without the answer".
@@ -322,11 +322,11 @@ class FilterConfig:
     limb_explore: float = 0.0
     #: hierarchical search: share of each limb partition's first layer whose limb comes from
     #: the detector proposal of the frame (the voxels' extremities fitted by inverse kinematics,
-    #: ``voxelmocap.recovery.detector_proposal``, spread ``recovery.proposal_spread``), in
+    #: ``voxelmocap.pose.recovery.detector_proposal``, spread ``recovery.proposal_spread``), in
     #: [0, 1); 0 = none (no detection either)
     limb_proposal: float = 0.0
     #: every this many frames, search each limb of the estimate over its legal ranges
-    #: (``voxelmocap.limb_search``, the voxel likelihood with the coverage term) and move the
+    #: (``voxelmocap.pose.limb_search``, the voxel likelihood with the coverage term) and move the
     #: particles to a limb found better: a limb the start folded is unfolded once its voxels
     #: show it (the gestures' forearm), a limb lost by the annealing is found again; 0 = never.
     #: Five clips without the answer, 3 seeds: 10 (gain 2, 256 samples) → 42.8 mm mean,
@@ -349,7 +349,7 @@ class FilterConfig:
     #: sweep uses 1024): 256 → 42.8 mm and ≈ 25 ms a sweep, 1024 → 43.6 mm and ≈ 70 ms
     limb_sweep_samples: int = 256
     #: the limb searches (the start's and the periodic one) first try each pair of limbs
-    #: exchanged (``voxelmocap.limb_search.swapped_limbs``): legs crossed onto each other's
+    #: exchanged (``voxelmocap.pose.limb_search.swapped_limbs``): legs crossed onto each other's
     #: voxels are one move from right, which a search of one limb cannot make
     limb_swaps: bool = False
 
@@ -367,7 +367,7 @@ class InitConfig:
 
     #: ``ground_truth``: fit the body to the first frame's ground truth; ``extremities``: fit
     #: labelled hypotheses to the voxels' head, hand and foot tips and start from a mixture of
-    #: the most likely (``voxelmocap.initialise``); ``voxels``: a standing pose at the voxel
+    #: the most likely (``voxelmocap.pose.initialise``); ``voxels``: a standing pose at the voxel
     #: centroid, best of 36 headings (the first method, kept for comparison); ``auto``: ground
     #: truth when the sequence has it, else ``extremities``
     method: str = _choice("auto", "ground_truth", "extremities", "voxels", default="auto")
@@ -382,7 +382,7 @@ class InitConfig:
     #: body size when there is no body file and no ground truth: ``voxels`` scales the average
     #: adult to the height of the first frame's voxels, ``average`` keeps the 1780 mm adult,
     #: ``fitted`` also fits the limb lengths to the voxels of the multi-start frames and tracks
-    #: them again with the fitted body (``voxelmocap.body_size``; needs ``multistart_frames``).
+    #: them again with the fitted body (``voxelmocap.pose.body_size``; needs ``multistart_frames``).
     #: Five clips without the answer (100 frames, 3 seeds, σ²_DO 0.1 and the limb sweep):
     #: fitted 60.5 mm / MMTA 91.2 % against voxels 63.8 mm / 88.4 % (walk 61.9 → 52.4, combo
     #: 62.1 → 56.3, box 56.8 → 58.6); with σ²_DO 0.01 it was within seed noise; with the
@@ -394,10 +394,10 @@ class InitConfig:
     #: dragged along by the motion while still far off; the estimate history is then cleared
     settle_steps: int = 5
     #: search each starting pose's four limbs over their whole legal ranges on the first frame
-    #: (``voxelmocap.limb_search``; starts found from the voxels only): a start fitted to the
+    #: (``voxelmocap.pose.limb_search``; starts found from the voxels only): a start fitted to the
     #: extremities often has a limb in a wrong optimum the annealing never leaves. Measured on
     #: the five clips without the answer (seed 0, σ²_DO 0.1): 84.1 mm without, 62.0 mm with.
-    #: A re-initialisation (``voxelmocap.recovery``) searches its candidates' limbs too
+    #: A re-initialisation (``voxelmocap.pose.recovery``) searches its candidates' limbs too
     limb_sweep: bool = True
     #: a run that learns its plate in passes (``[measurement.silhouette] plate_passes``): pass
     #: ``k`` from this one on starts from the previous pass's body and its pose at the first
@@ -438,7 +438,8 @@ class ExportConfig:
 
 @dataclass(frozen=True)
 class RecoveryConfig:
-    """Frames without a person, lost tracks and the IAPF's detector proposal (``voxelmocap.recovery``)."""
+    """Frames without a person, lost tracks and the IAPF's detector proposal
+    (``voxelmocap.pose.recovery``)."""
 
     #: flag frames without a person (not tracked) and re-initialise when the person comes back
     #: or the track is lost (``BodyTracker.observe``); off: every frame is tracked
@@ -471,7 +472,7 @@ class RecoveryConfig:
 
 @dataclass(frozen=True)
 class CuesConfig:
-    """Likelihood cues and their fusion (``voxelmocap.cues``, ``docs/cues.md``).
+    """Likelihood cues and their fusion (``voxelmocap.score.cues``, ``docs/cues.md``).
 
     The global log-likelihood is ``Σ weight · log p`` over the cues named in ``weights``.
     """
@@ -773,10 +774,25 @@ def _check_silhouette(obj: SilhouetteConfig, prefix: str, source) -> None:
         bad("grabcut_iterations", ">= 1")
 
 
-def _check_cues(obj: CuesConfig, prefix: str, source) -> None:
-    from .cues import check_weights
+#: The cues ``[cues] weights`` and ``track --cues`` may name: the keys of
+#: :data:`voxelmocap.score.cues.CUES` (a test holds the two equal; the config sits below the cues).
+CUE_NAMES = ("voxel", "edges", "dt", "roi", "blob3d", "skin", "uniform", "silhouette")
 
-    check_weights(obj.weights, source, f"{prefix}.weights")
+
+def check_cue_weights(weights: dict, source, key: str = "cues.weights") -> None:
+    """Refuse unknown cue names, non-positive weights and an empty selection."""
+    known = ", ".join(CUE_NAMES)
+    if not weights:
+        raise InputError(source, f"key {key!r} selects no cue (known: {known})")
+    for name, w in weights.items():
+        if name not in CUE_NAMES:
+            raise InputError(source, f"key {key!r}: unknown cue {name!r} (known: {known})")
+        if not (np.isfinite(w) and w > 0):
+            raise InputError(source, f"key '{key}.{name}' must be a positive weight, got {w!r}")
+
+
+def _check_cues(obj: CuesConfig, prefix: str, source) -> None:
+    check_cue_weights(obj.weights, source, f"{prefix}.weights")
     for name in ("edge_spacing", "edge_search", "edge_variance", "sigma_dt", "sigma_roi",
                  "sigma_3d_mm", "sigma_skin", "sigma_uniform", "histogram_bins", "skin_bins",
                  "uniform_max_std", "silhouette_size", "silhouette_scale"):

@@ -7,7 +7,7 @@
 * :func:`evaluate_sequence`: the paper's Table 1 row for one sequence (μ, σ of the per-frame mean
   error, MMTP, MMTA, plus the mean HumanEva ``error()``), skipping frames whose ground truth has a
   disabled endpoint and frames without an estimate (every estimated endpoint disabled: a frame the
-  tracker flagged without a person, ``voxelmocap.recovery``).
+  tracker flagged without a person, ``voxelmocap.pose.recovery``).
 * :func:`evaluate_points`: the same errors against any named 3-D reference (a TRC or CSV mapped
   onto some of the landmarks), with missing reference values left out.
 """
@@ -24,6 +24,7 @@ from .joints import LANDMARK_ENDPOINTS, endpoints_to_landmarks
 __all__ = [
     "PointScores",
     "SequenceScores",
+    "best_cell",
     "evaluate_points",
     "evaluate_sequence",
     "humaneva_error",
@@ -321,3 +322,28 @@ def evaluate_points(est, ref, names, *, delta: float = 100.0) -> tuple[PointScor
     )
     return scores, {"errors": errors, "valid": valid, "mean_error": mean_error, "mmta": mmta_f,
                     "mmtp": mmtp_f}
+
+
+def best_cell(mmta: np.ndarray, layers, particles, *, tolerance: float = 0.0):
+    """Index ``(i, j)`` of the cheapest cell whose MMTA is within ``tolerance`` of the best.
+
+    The cost is ``N_L · N_p``; among cells of equal cost the higher MMTA wins, then the fewer
+    layers.
+
+    Parameters
+    ----------
+    mmta : (n_layers, n_particles) ndarray
+        Mean MMTA (%) per cell, NaN where missing.
+    layers, particles : sequence of int
+        The axes' values.
+    tolerance : float
+        Percentage points below the best that still count as reaching it.
+    """
+    if np.all(np.isnan(mmta)):
+        return None
+    best = np.nanmax(mmta)
+    candidates = [(layers[i] * particles[j], -mmta[i, j], i, j)
+                  for i in range(len(layers)) for j in range(len(particles))
+                  if not np.isnan(mmta[i, j]) and mmta[i, j] >= best - tolerance]
+    _, _, i, j = min(candidates)
+    return i, j

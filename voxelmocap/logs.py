@@ -1,7 +1,7 @@
 """Logging of the ``voxelmocap`` command: console verbosity, the run folder's log file, tqdm.
 
 Every module logs through ``logging.getLogger(__name__)``, so the loggers form the package
-hierarchy ``voxelmocap.pipeline``, ``voxelmocap.measurement_runner``, ``voxelmocap.sweep`` …
+hierarchy ``voxelmocap.run.pipeline``, ``voxelmocap.run.measurement``, ``voxelmocap.run.sweep`` …
 under ``voxelmocap``, which carries a :class:`logging.NullHandler`: a program importing the
 package sees nothing unless it configures logging itself (the standard library's advice for
 libraries). The command line calls :func:`configure` once:
@@ -22,7 +22,7 @@ atomic output is discarded, writes no log file.
 >>> import logging
 >>> from voxelmocap.logs import configure
 >>> handlers = configure(verbosity=0)                                     # doctest: +SKIP
->>> logging.getLogger("voxelmocap.pipeline").info("tracked")             # doctest: +SKIP
+>>> logging.getLogger("voxelmocap.run.pipeline").info("tracked")             # doctest: +SKIP
 tracked
 """
 

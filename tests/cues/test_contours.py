@@ -8,7 +8,7 @@ from scipy import ndimage
 
 from voxelmocap.body import BodyModel
 from voxelmocap.camera import Camera
-from voxelmocap.cues import contour_angles, contour_points, project_contours
+from voxelmocap.score.cues import contour_angles, contour_points, project_contours
 
 
 def _frame(axis, rng):
@@ -163,7 +163,7 @@ def test_body_model_contours_shapes_and_depth():
 def test_body_mask_is_the_image_of_points_sampled_inside_the_cones(seed):
     """Every point inside a cone projects into the mask, and every mask pixel lies within a
     pixel of such a point (dense sampling of the solid cones: a brute-force image)."""
-    from voxelmocap.cues.contours import body_mask
+    from voxelmocap.score.cues.contours import body_mask
 
     rng = np.random.default_rng(seed)
     model = BodyModel()

@@ -8,12 +8,12 @@ import pytest
 from voxelmocap.body import BodyModel
 from voxelmocap.camera import Camera
 from voxelmocap.config import CuesConfig, TrackConfig, config_from_toml, config_to_toml
-from voxelmocap.cues import CueSet, Views, bhattacharyya, image_bins, parse_cues
-from voxelmocap.cues.frame import CueFrame
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import log_likelihood, rasterise
-from voxelmocap.observation import VoxelObservation
+from voxelmocap.measure.observation import VoxelObservation
+from voxelmocap.score.cues import CueSet, Views, bhattacharyya, image_bins, parse_cues
+from voxelmocap.score.cues.frame import CueFrame
+from voxelmocap.score.likelihood import log_likelihood, rasterise
 
 
 def test_bhattacharyya_hand_computed():
@@ -56,7 +56,7 @@ def _frame(model, state, cameras, *, grid=None):
 
     geo = model.geometry(state[None])
     images = []
-    from voxelmocap.cues import project_contours
+    from voxelmocap.score.cues import project_contours
 
     for cam in cameras:
         img = np.full((480, 640, 3), 90, np.uint8)
@@ -85,7 +85,7 @@ def test_distance_cue_hand_computed():
     assert got[0] == pytest.approx(-9.0 / (2 * 10.0 ** 2))
     # a map whose value is the column u: D = mean u of the visible contour points
     frame._distance[0] = np.tile(np.arange(640, dtype=np.float32), (480, 1))
-    from voxelmocap.cues.reference import dt_sum_reference
+    from voxelmocap.score.cues.reference import dt_sum_reference
 
     views = Views(model, frame, x[None])
     total, count = dt_sum_reference(views.seg[0], views.valid[0], views.depth[0],
@@ -201,7 +201,7 @@ def test_parse_and_config_round_trip():
 def test_tracker_with_image_cues_follows_the_pose():
     """The body tracker with fused cues steps on image observations and stays on the pose."""
     from voxelmocap.config import with_overrides
-    from voxelmocap.tracker import BodyTracker
+    from voxelmocap.pose.tracker import BodyTracker
 
     model = BodyModel()
     x = model.default_state()
@@ -226,7 +226,7 @@ def test_checkpoint_keeps_learnt_references(tmp_path):
     as the uninterrupted one: the ROI, skin and uniform references travel with the state."""
     from voxelmocap.config import with_overrides
     from voxelmocap.io.results import _pack_checkpoint, _unpack_checkpoint
-    from voxelmocap.tracker import BodyTracker
+    from voxelmocap.pose.tracker import BodyTracker
 
     model = BodyModel()
     x = model.default_state()

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from matplotlib.path import Path as MplPath
 
-from voxelmocap import _cue_kernels as k
-from voxelmocap.cues import reference as ref
+from voxelmocap.score.cues import _cue_kernels as k
+from voxelmocap.score.cues import reference as ref
 
 
 def _step_image(col, low=50.0, high=120.0, size=(100, 120)):

@@ -9,15 +9,15 @@ import pytest
 from scipy.spatial import ConvexHull, Delaunay
 from test_cues import _camera
 
-from voxelmocap import _silhouette_kernels as sk
 from voxelmocap.body import BodyModel
 from voxelmocap.config import CuesConfig, TrackConfig, config_from_toml, with_overrides
-from voxelmocap.cues import CueSet
-from voxelmocap.cues.contours import project_outlines
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import rasterise
-from voxelmocap.observation import VoxelObservation
+from voxelmocap.measure import _silhouette_kernels as sk
+from voxelmocap.measure.observation import VoxelObservation
+from voxelmocap.score.cues import CueSet
+from voxelmocap.score.cues.contours import project_outlines
+from voxelmocap.score.likelihood import rasterise
 
 
 def _drawn(points, valid, h, w):
@@ -205,8 +205,8 @@ def test_silhouette_cue_reduces_large_images():
 def test_hierarchical_search_adds_image_cues_on_whole_states():
     """With the voxel cue at weight 1 and an image cue, the search is hierarchical and each
     partition's callable equals the fused likelihood of the whole states."""
-    from voxelmocap.hierarchy import body_partitions
-    from voxelmocap.tracker import BodyTracker, searches_hierarchically
+    from voxelmocap.pose.hierarchy import body_partitions
+    from voxelmocap.pose.tracker import BodyTracker, searches_hierarchically
 
     model = BodyModel()
     x = model.default_state()
@@ -234,8 +234,8 @@ def test_the_limb_searches_score_the_other_cues_on_whole_states(monkeypatch):
     """The start's and the periodic limb search get the fused likelihood of the cues other than
     the voxel one (a visual hull offers phantom volume the silhouettes rule out); with the voxel
     cue alone they get none."""
-    import voxelmocap.limb_search as limb_search
-    from voxelmocap.tracker import BodyTracker
+    import voxelmocap.pose.limb_search as limb_search
+    from voxelmocap.pose.tracker import BodyTracker
 
     model = BodyModel()
     x = model.default_state()
@@ -276,7 +276,7 @@ def test_the_start_search_scores_the_silhouettes_before_other_cues_have_a_refere
     """With a cue that learns its reference appearance from a pose (roi) beside the silhouette
     cue, the start's limb search (no pose yet) still gets the silhouette term; the roi term,
     not learnt, adds 0."""
-    from voxelmocap.tracker import BodyTracker
+    from voxelmocap.pose.tracker import BodyTracker
 
     model = BodyModel()
     x = model.default_state()
@@ -316,7 +316,7 @@ def test_silhouette_cue_without_masks_is_refused():
 def test_outline_kernel_equals_numpy_reference():
     """The numba outline kernel (the cue's hot path) against :func:`project_outlines`, with lens
     distortion and skew, and parts behind the camera marked invalid."""
-    from voxelmocap.cues.contours import outline_pixels
+    from voxelmocap.score.cues.contours import outline_pixels
 
     rng = np.random.default_rng(6)
     model = BodyModel()

@@ -12,7 +12,7 @@ from voxelmocap.io.exports import landmark_table
 from voxelmocap.io.results import read_result, write_result
 from voxelmocap.io.trc import read_trc
 from voxelmocap.joints import LANDMARK_NAMES
-from voxelmocap.pipeline import track_sequence
+from voxelmocap.run.pipeline import track_sequence
 from voxelmocap.smoothing import butterworth
 
 TOL_MM = 1e-3  # the acceptance bound

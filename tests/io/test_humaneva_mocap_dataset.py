@@ -133,7 +133,7 @@ def test_info_names_the_ground_truth_source(raw_tree, capsys):
 
 def test_track_initialises_from_the_raw_mocap_ground_truth(tmp_path):
     from voxelmocap.config import TrackConfig, with_overrides
-    from voxelmocap.pipeline import track_sequence
+    from voxelmocap.run.pipeline import track_sequence
 
     root = make_tiny_dataset(tmp_path / "raw", with_gt=False)  # 3 cameras, common time 1
     write_subject_mocap(root / "S1", "S1", "Walking_1", standing_markers(30))

@@ -9,7 +9,7 @@ from voxelmocap.camera import Camera
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
 from voxelmocap.io.voxels import VoxelDump, VoxelDumpWriter, write_ply
-from voxelmocap.surface import smooth_surface, surface_voxels
+from voxelmocap.measure.surface import smooth_surface, surface_voxels
 
 GRID = VoxelGrid(origin=(-200.0, -100.0, 0.0), voxel_size=20.0, shape=(12, 10, 14))
 

@@ -7,8 +7,8 @@ from voxelmocap.body import BodyModel
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.likelihood import Measurement, log_likelihood, rasterise
-from voxelmocap.tracker import BodyTracker
+from voxelmocap.pose.tracker import BodyTracker
+from voxelmocap.score.likelihood import Measurement, log_likelihood, rasterise
 from voxelmocap.tracking.partitioned import Partition, PartitionedParticleFilter
 from voxelmocap.tracking.refine import pattern_search
 

@@ -13,7 +13,7 @@ from voxelmocap.config import TrackConfig, with_overrides  # noqa: E402
 from voxelmocap.io.humaneva import Dataset  # noqa: E402
 from voxelmocap.io.results import read_result  # noqa: E402
 from voxelmocap.joints import LANDMARK_PARENTS  # noqa: E402
-from voxelmocap.measurement_runner import MeasurementRunner  # noqa: E402
+from voxelmocap.run.measurement import MeasurementRunner  # noqa: E402
 
 CAMERAS = ["C1", "C2", "BW1"]
 FRAMES = list(range(1, 11))

@@ -30,7 +30,7 @@ class PartGeometry:
     shape : (n_parts, 7) float64 ndarray
         Per part ``1/H, 1/W, L, (R − 1)/L, H, W, R`` (mm⁻¹, mm⁻¹, mm, mm⁻¹, mm, mm, 1). Membership
         of a point ``p`` is decided with exactly these numbers by both likelihood implementations
-        (see ``voxelmocap.likelihood``).
+        (see ``voxelmocap.score.likelihood``).
     """
 
     def __init__(self, kin: Kinematics, parts: tuple[Part, ...]):

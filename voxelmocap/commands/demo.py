@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     from ..config import TrackConfig, with_overrides
     from ..errors import InputError
     from ..io.reports import evaluate_files, format_table, report_json, write_json
-    from ..pipeline import track_sequence
+    from ..run.pipeline import track_sequence
     from ..synth import generate
 
     if args.motion not in _ACTIONS:

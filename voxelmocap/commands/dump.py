@@ -69,13 +69,13 @@ def _config(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..measurement_runner import dump_sequence
+    from ..run.measurement import dump_sequence
 
     cameras = [c.strip() for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     plate_body = None
     if args.plate_from:
         from ..io.sequence import open_sequence
-        from ..pipeline import tracked_body
+        from ..run.pipeline import tracked_body
 
         seq = open_sequence(args.dataset, args.subject, args.sequence, cameras=cameras)
         plate_body = tracked_body(args.plate_from, seq, seq.ground_truth())

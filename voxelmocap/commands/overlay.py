@@ -31,7 +31,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..inspection import overlay_video
+    from ..run.inspection import overlay_video
 
     out = overlay_video(args.run_dir, args.dataset, camera=args.camera, subject=args.subject,
                         sequence=args.sequence, out=args.out, fps=args.fps,

@@ -60,7 +60,7 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..config import config_to_toml, load_config
     from ..io.humaneva import Dataset
-    from ..sweep import run_sweep
+    from ..run.sweep import run_sweep
     from ..viz.plots import plot_sweep_heatmaps
 
     base = config_to_toml(load_config(args.config)) if args.config else None

@@ -98,7 +98,7 @@ def resolve_config(args):
     if getattr(args, "cues", None):
         import dataclasses
 
-        from ..cues import parse_cues
+        from ..score.cues import parse_cues
 
         config = dataclasses.replace(config, cues=dataclasses.replace(
             config.cues, weights=parse_cues(args.cues)))
@@ -127,14 +127,14 @@ def run(args: argparse.Namespace) -> int:
     for name in ("scheduler", "workers"):
         if getattr(args, name) is not None:
             raise InputError(f"--{name}", "only with --all")
-    from ..pipeline import track_sequence
+    from ..run.pipeline import track_sequence
 
     if args.masks and args.plate_from:  # refused before any note about what they select
         raise InputError("--plate-from", "not with --masks (given masks need no plate)")
     config = resolve_config(args)
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     if cameras is not None:
-        from ..cues import CueSet
+        from ..score.cues import CueSet
 
         # refused here, before the background models are learnt, when the cameras are named
         CueSet.check_weights_for_cameras(config.cues.weights, cameras)
@@ -174,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_all(args: argparse.Namespace) -> int:
     """``--all``: every sequence; the summary; exit code 1 if any sequence failed."""
-    from ..batch import run_batch
+    from ..run.batch import run_batch
 
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     summary = run_batch(args.dataset, args.out, config=resolve_config(args), frames=args.frames,

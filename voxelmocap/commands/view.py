@@ -36,7 +36,7 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..inspection import view_dump
+    from ..run.inspection import view_dump
 
     outcome = view_dump(args.dump, frame=args.frame, volume=args.volume, out=args.out,
                         window=False if args.png else None)

@@ -6,7 +6,7 @@ Columns (comma-separated, a header row, UTF-8)::
 
 ``frame`` is the synchronised 1-based frame number, ``time_s`` = (frame − 1) / frame rate,
 ``x_mm … z_mm`` the position (empty when there is no estimate), ``confidence`` in [0, 1] and
-``spread_mm`` the particle spread (:mod:`voxelmocap.confidence`; empty when unknown),
+``spread_mm`` the particle spread (:mod:`voxelmocap.pose.confidence`; empty when unknown),
 ``observed`` 1 when a person was seen in the frame, else 0. Rows are ordered by frame, then by
 landmark. ``pandas.read_csv`` reads it as is; so does :func:`read_points_csv`, which also reads a
 reference of named points (``frame``, ``landmark`` or ``marker`` or ``name``, and ``x_mm``,

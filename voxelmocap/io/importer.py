@@ -111,8 +111,8 @@ def import_sequence(seq, out, *, subject: str = "S1", action: str | None = None,
     log : callable
         Where one-line messages go.
     """
-    from ..io.calibration import write_rig
-    from ..io.humaneva import write_ofs
+    from .calibration import write_rig
+    from .humaneva import write_ofs
 
     subject = humaneva_name(subject, "--subject")
     action = humaneva_name(action or seq.name, "--action", letters_only=True)

@@ -8,8 +8,8 @@
   ``part_scores`` (F, n_parts, 4) of the estimate (Out, DO, Empty, Surf), ``ess`` and ``betas``
   (F, L) per annealing layer, ``seconds`` (F,) per frame, ``log_likelihood`` (F,);
   ``landmark_spread`` (F, 15) mm and ``confidence`` (F, 15) in [0, 1] per landmark
-  (:mod:`voxelmocap.confidence`), ``observed`` (F,) uint8 (0: flagged without a person, the row
-  repeating the last estimate, ``voxelmocap.recovery``; format 3 on —
+  (:mod:`voxelmocap.pose.confidence`), ``observed`` (F,) uint8 (0: flagged without a person, the row
+  repeating the last estimate, ``voxelmocap.pose.recovery``; format 3 on —
   a format-2 file reads as NaN spread and confidence and every frame observed);
 * ``state_names`` and ``part_names``: UTF-8 string datasets;
 * file attributes: ``format`` / ``format_version``, ``voxelmocap_version``, ``created`` (UTC, ISO
@@ -92,7 +92,7 @@ PER_FRAME: dict[str, tuple[str, str]] = {
     "landmark_spread": ("mm", "weighted RMS distance of each landmark over the last layer's "
                         "particles (NaN: unknown)"),
     "confidence": ("1", "confidence of each landmark in [0, 1]: voxel support of its parts x "
-                   "P(error < 100 mm) for the particles' spread (voxelmocap.confidence)"),
+                   "P(error < 100 mm) for the particles' spread (voxelmocap.pose.confidence)"),
     "observed": ("1", "1 when a person was seen in the frame, 0 when not (then the estimate "
                  "is the filter's prediction)"),
 }
@@ -423,7 +423,7 @@ class ResultWriter:
         ----------
         record : object
             Attributes named like :data:`PER_FRAME` (``frame`` for ``frames``), e.g. a
-            :class:`voxelmocap.tracker.FrameRecord`.
+            :class:`voxelmocap.pose.tracker.FrameRecord`.
         checkpoint : dict or None
             The filter state after this frame (None: the file then has no checkpoint).
         complete : bool

@@ -7,7 +7,7 @@ runs, per frame, the partitions in order. Partition 0 keeps each particle's own 
 other dimensions (its likelihood is evaluated in full). Every later partition ``k`` holds all
 dimensions outside its own at the estimate reached so far (the *reference*), so that the caller
 can score its particles by re-scoring only what its dimensions move
-(:class:`voxelmocap.partial_likelihood.PartialScorer` for a limb): the caller supplies
+(:class:`voxelmocap.score.partial.PartialScorer` for a limb): the caller supplies
 ``log_likelihood_for(k, reference) -> callable``.
 
 Within a partition: resample (to the partition's particle count), propagate its dimensions (layer
@@ -126,7 +126,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
             for ``k > 0`` they equal ``reference`` outside partition ``k``.
         proposal : callable, optional
             ``proposal(n, rng) -> (n, D)``: an importance function of this frame (e.g. a
-            detector's, :class:`voxelmocap.recovery.MixtureProposal`). ``proposal_share`` of the
+            detector's, :class:`voxelmocap.pose.recovery.MixtureProposal`). ``proposal_share`` of the
             first layer's particles of every partition after the first take their partition's
             dimensions from it (the IAPF's mixing, Fontmarty et al. Table I, without the
             importance correction), so that a limb the dynamics lost can jump back.

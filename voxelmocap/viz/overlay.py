@@ -5,7 +5,7 @@ and four generator lines, :func:`draw_pose` projects them (and optional landmark
 camera's full model and draws them; :func:`overlay_frame` composes one frame of an overlay video
 (cones, tracked landmarks, ground truth, a caption); :func:`overlay_all` puts every camera's
 overlay of one frame side by side (:func:`mosaic`), to check a real run by eye. Pure functions
-on arrays; writing videos is :func:`voxelmocap.inspection.overlay_video`'s job.
+on arrays; writing videos is :func:`voxelmocap.run.inspection.overlay_video`'s job.
 """
 
 from __future__ import annotations

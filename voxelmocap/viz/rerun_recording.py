@@ -1,6 +1,6 @@
 """A Rerun recording (``.rrd``) of a tracking run, to scrub through it in 3D in the Rerun viewer.
 
-:class:`RerunRecorder` is handed to :func:`voxelmocap.pipeline.track_sequence` as its
+:class:`RerunRecorder` is handed to :func:`voxelmocap.run.pipeline.track_sequence` as its
 ``recorder`` (``voxelmocap track --rerun FILE.rrd``). What it records, on the ``frame`` timeline
 (HumanEva's synchronised 1-based frame numbers):
 

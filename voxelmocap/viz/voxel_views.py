@@ -3,7 +3,7 @@
 :func:`views_figure` draws front (x–z), side (y–z) and top (x–y) depth-shaded orthographic views of
 a volume and, beside them, each camera's silhouette (when given) with the occupied voxel centres
 projected on it; :func:`open3d_window` shows the voxels in an interactive window. Pure drawing:
-saving the figure is the caller's (:func:`voxelmocap.inspection.view_dump`).
+saving the figure is the caller's (:func:`voxelmocap.run.inspection.view_dump`).
 """
 
 from __future__ import annotations

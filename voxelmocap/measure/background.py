@@ -1,0 +1,665 @@
+"""A background plate learnt from the sequence itself, when no empty background video exists.
+
+A real recording rarely comes with an empty plate. The temporal median of the sequence is the
+usual stand-in, but a person who stays in one place for a while is *in* the median: the
+silhouettes then lose the person there (absorbed) and show a "ghost" where the person stood once
+they move. :func:`learn_plates` removes the person from the plate with the cameras' geometry:
+
+1. start from the temporal median of each camera (frames normalised for exposure changes);
+2. segment every sampled frame against the current plates (:class:`PlateBackground`), drop 2D
+   *ghosts* (a blob whose outline is an edge of the plate but not of the frame: the frame shows
+   the background the plate lacks), carve the silhouettes on a coarse grid, keep the person
+   (the largest 3D component, fragments within a few voxels merged), and project it back into
+   each view: the convex hull of its voxels' pixels, dilated, is *covered* in that frame;
+3. a frame in which the person vanished (its volume far below the sequence's typical volume:
+   the person is in the plate, but where is unknown) covers its whole image;
+4. re-estimate each pixel's plate as the median of the frames where it is not covered, and
+   repeat from 2 until the plates stop changing.
+
+Pixels covered in every frame have no learnt background: the person was there throughout, so
+:class:`PlateBackground` reports them as foreground (a camera cannot veto what it never saw
+empty). Too many such pixels (``max_unknown`` of the image) and the plate cannot be learnt: an
+:class:`~voxelmocap.errors.InputError` names the camera and asks for an empty background video.
+
+The noise of each camera is measured from the plate's own frames (the per-pixel inter-quartile
+range of the uncovered samples, ÷ 1.349 = σ for Gaussian noise), floored by the camera's median
+σ; a pixel is foreground when ``Σ_c (I_c − g·P_c)² / σ²`` exceeds the χ² quantile with ``C``
+degrees of freedom at ``false_alarm`` (``g`` is the frame's exposure gain against the plate).
+Cast shadows (darker, same chromaticity: Horprasert) are background.
+
+This module reads no file: :mod:`voxelmocap.run.measurement` hands over the decoded frames.
+
+>>> plates = learn_plates(frames, rig, coarse_grid, SilhouetteConfig())  # doctest: +SKIP
+>>> mask = segment(image, plates["cam01"], config, camera="cam01")        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+
+import cv2
+import numpy as np
+from scipy import ndimage, stats
+
+from ..config import SilhouetteConfig
+from ..errors import InputError
+from .carving import Carver
+
+__all__ = ["PlateBackground", "camera_at_most", "downscale_camera", "learn_plates", "masked_median",
+           "person_component", "plate_from_frames", "plates_from_covers"]
+
+_DEFAULT = SilhouetteConfig()
+#: Smallest visual-hull volume of a person (mm³): 30 litres, below a small adult's body volume
+#: (≈ 60 litres) let alone its visual hull; a person carving into less is (partly) in the plate.
+MIN_PERSON_MM3 = 30e6
+#: Closing radius of the projected person (share of its height in the image) that covers a torso
+#: the plate absorbed between carved limbs.
+COVER_CLOSING = 0.12
+#: Gains outside this range mean the frame is not comparable with the plate (lights switched).
+_GAIN_RANGE = (0.5, 2.0)
+
+
+# ---------------------------------------------------------------------- small helpers
+def _channels(image) -> np.ndarray:
+    img = np.asarray(image)
+    return img[:, :, None] if img.ndim == 2 else img
+
+
+def _gain(image: np.ndarray, plate: np.ndarray, known: np.ndarray | None = None) -> float:
+    """Exposure gain of ``image`` against ``plate`` (median ratio on a pixel subsample)."""
+    step = max(1, int(np.sqrt(image.shape[0] * image.shape[1] / 20000)))
+    i = image[::step, ::step].astype(np.float32).sum(axis=2)
+    p = plate[::step, ::step].astype(np.float32).sum(axis=2)
+    ok = p > 30 * image.shape[2]
+    if known is not None:
+        ok &= known[::step, ::step]
+    if ok.sum() < 50:
+        return 1.0
+    g = float(np.median(i[ok] / p[ok]))
+    return float(np.clip(g, *_GAIN_RANGE))
+
+
+def downscale_camera(camera, size):
+    """The camera of the same view imaged at ``size = (W', H')`` pixels (pixel centres kept).
+
+    Bouguet's pixel (0, 0) is centred at (0, 0), so ``u' = (u + ½)·W'/W − ½``.
+    """
+    w, h = camera.size
+    s = np.array([size[0] / w, size[1] / h])
+    return dataclasses.replace(camera, fc=np.asarray(camera.fc) * s,
+                               cc=(np.asarray(camera.cc) + 0.5) * s - 0.5,
+                               size=(int(size[0]), int(size[1])))
+
+
+def camera_at_most(camera, max_side: int):
+    """:func:`downscale_camera` to at most ``max_side`` pixels on a side (not enlarged)."""
+    w, h = camera.size
+    s = min(1.0, max_side / max(w, h))
+    return downscale_camera(camera, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
+
+
+def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
+                  quartiles: bool = False, rows: int = 128):
+    """Per-pixel median of the frames where ``keep`` is True.
+
+    Parameters
+    ----------
+    frames : (F, H, W, C) uint8 ndarray
+    keep : (F, H, W) bool ndarray, optional
+        Samples to use (default all).
+    quartiles : bool
+        Also return the robust σ = (Q3 − Q1) / 1.349 of the kept samples (per pixel, the root
+        mean square over the channels).
+    rows : int
+        Rows processed at once (bounds the memory of the sort).
+
+    Returns
+    -------
+    median : (H, W, C) float32
+    count : (H, W) int
+        Samples kept per pixel (0: no median, the value is 0).
+    sigma : (H, W) float32, only with ``quartiles``
+    """
+    f, h, w, c = frames.shape
+    med = np.zeros((h, w, c), np.float32)
+    sig = np.zeros((h, w), np.float32)
+    count = np.full((h, w), f, int) if keep is None else keep.sum(axis=0)
+    for r0 in range(0, h, rows):
+        block = frames[:, r0:r0 + rows].astype(np.uint16)
+        if keep is not None:
+            block[~keep[:, r0:r0 + rows]] = 512          # sorts after every real value
+        block.sort(axis=0)
+        n = count[r0:r0 + rows]
+
+        def at(q, block=block, n=n):
+            pos = np.clip((n - 1) * q, 0, None)
+            lo = np.floor(pos).astype(int)
+            hi = np.ceil(pos).astype(int)
+            a = np.take_along_axis(block, lo[None, :, :, None].repeat(c, 3), 0)[0]
+            b = np.take_along_axis(block, hi[None, :, :, None].repeat(c, 3), 0)[0]
+            t = (pos - lo)[:, :, None]
+            return a * (1 - t) + b * t
+
+        m = at(0.5)
+        m[n == 0] = 0
+        med[r0:r0 + rows] = m
+        if quartiles:
+            s = np.sqrt((((at(0.75) - at(0.25)) / 1.349) ** 2).mean(axis=2))
+            s[n < 4] = 0
+            sig[r0:r0 + rows] = s
+    return (med, count, sig) if quartiles else (med, count)
+
+
+# ---------------------------------------------------------------------- the background model
+class PlateBackground:
+    """A static plate with a per-pixel noise level: the foreground test of a learnt background.
+
+    Parameters
+    ----------
+    plate : (H, W) or (H, W, C) array_like
+        Background image (0–255).
+    sigma : (H, W) array_like or float
+        Noise standard deviation per pixel (grey levels, per channel).
+    known : (H, W) bool array_like, optional
+        Pixels whose background was seen; the others are always foreground (default: all known).
+    false_alarm : float
+        Probability that noise alone makes a pixel foreground (χ² tail with C degrees of freedom).
+    shadows : bool
+        Cast shadows (brightness ratio in ``shadow_brightness``, chromaticity distortion below
+        ``shadow_chromaticity``) are background.
+
+    Attributes
+    ----------
+    threshold : float
+        The χ² quantile that ``Σ_c (I_c − g P_c)² / σ²`` must exceed.
+    camera_sigma : float
+        The median of ``sigma`` over the known pixels: the camera's noise level.
+    """
+
+    def __init__(self, plate, sigma, known=None, *, false_alarm: float = _DEFAULT.false_alarm,
+                 shadows: bool = _DEFAULT.shadows,
+                 shadow_brightness=_DEFAULT.shadow_brightness,
+                 shadow_chromaticity: float = _DEFAULT.shadow_chromaticity):
+        self.plate = _channels(np.asarray(plate, np.float32))
+        h, w, c = self.plate.shape
+        sigma = np.broadcast_to(np.asarray(sigma, np.float32), (h, w))
+        self.known = np.ones((h, w), bool) if known is None else np.asarray(known, bool)
+        if self.known.shape != (h, w):
+            raise InputError("background", f"known mask {self.known.shape} differs from the "
+                                           f"plate's {(h, w)}")
+        if not 0 < false_alarm < 1:
+            raise InputError("false_alarm", f"must be in (0, 1), got {false_alarm!r}")
+        self.sigma = np.maximum(sigma, 0.5).astype(np.float32)
+        self.camera_sigma = float(np.median(self.sigma[self.known])) if self.known.any() else 0.5
+        self.false_alarm = float(false_alarm)
+        self.threshold = float(stats.chi2.isf(false_alarm, c))
+        self._inv_var = (1.0 / self.sigma ** 2).astype(np.float32)
+        self.shadows = bool(shadows)
+        self.shadow_brightness = tuple(shadow_brightness)
+        self.shadow_chromaticity = float(shadow_chromaticity)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Image size ``(H, W)``."""
+        return self.plate.shape[:2]
+
+    def distance(self, image) -> tuple[np.ndarray, float]:
+        """``Σ_c (I_c − g P_c)² / σ²`` per pixel (H, W) float32, and the exposure gain ``g``."""
+        img = _channels(np.asarray(image))
+        if img.shape[:2] != self.shape:
+            raise InputError("image", f"size {img.shape[1]}x{img.shape[0]} differs from the "
+                                      f"background plate's {self.shape[1]}x{self.shape[0]}")
+        if img.shape[2] != self.plate.shape[2]:
+            img = (cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_BGR2GRAY)[:, :, None]
+                   if self.plate.shape[2] == 1 else np.repeat(img, 3, axis=2))
+        g = _gain(img, self.plate, self.known)
+        d = img.astype(np.float32) - np.float32(g) * self.plate
+        return np.einsum("ijc,ijc->ij", d, d) * self._inv_var, g
+
+    def foreground(self, image) -> np.ndarray:
+        """Raw foreground (H, W) bool of one image: unlike the plate beyond noise, not a shadow,
+        or never seen empty."""
+        dist, g = self.distance(image)
+        mask = dist > self.threshold
+        if self.shadows and mask.any():
+            rows, cols = np.nonzero(mask & self.known)
+            x = _channels(np.asarray(image))[rows, cols].astype(np.float32)
+            bg = g * self.plate[rows, cols]
+            if x.shape[1] != bg.shape[1]:
+                x = x.mean(axis=1, keepdims=True) if bg.shape[1] == 1 else x
+            shadow = _shadow(x, bg, self.shadow_brightness, self.shadow_chromaticity)
+            mask[rows[shadow], cols[shadow]] = False
+        mask |= ~self.known
+        return mask
+
+    def refine(self, image, mask, config: SilhouetteConfig | None = None) -> np.ndarray:
+        """Decide the never-seen pixels of a cleaned silhouette from this frame's colours.
+
+        :meth:`foreground` calls every pixel whose background was never seen foreground. With
+        ``config.plate_unknown == "grabcut"`` each 8-connected blob of ``mask`` holding such
+        pixels is cropped (its box grown by a quarter of its size) and handed to OpenCV's GrabCut
+        at ``grabcut_scale`` of the resolution: known foreground pixels are fixed foreground,
+        known background fixed background, the never-seen ones *probably foreground*, so GrabCut
+        labels only them, from colour models of this frame's person and background in the crop
+        and its edge-aware smoothness. A crop without known foreground or known background is
+        left as it is.
+
+        Parameters
+        ----------
+        image : (H, W, 3) or (H, W) uint8 array_like
+        mask : (H, W) bool array_like
+            The cleaned silhouette of ``image`` against this plate.
+        config : SilhouetteConfig, optional
+
+        Returns
+        -------
+        (H, W) bool ndarray
+            ``mask`` with its never-seen pixels decided (a new array).
+        """
+        config = config or _DEFAULT
+        mask = np.array(mask, bool)
+        unknown = mask & ~self.known
+        if config.plate_unknown != "grabcut" or not unknown.any():
+            return mask
+        img = _channels(np.asarray(image))
+        if img.shape[2] == 1:
+            img = np.repeat(img, 3, axis=2)
+        img = np.ascontiguousarray(img.astype(np.uint8, copy=False))
+        n, labels, st, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+        has_unknown = np.bincount(labels[unknown], minlength=n) > 0
+        h, w = mask.shape
+        for k in np.flatnonzero(has_unknown[1:]) + 1:
+            x, y, bw, bh = (int(st[k, i]) for i in (0, 1, 2, 3))
+            pad = max(bw, bh) // 4 + 8
+            box = (slice(max(y - pad, 0), min(y + bh + pad, h)),
+                   slice(max(x - pad, 0), min(x + bw + pad, w)))
+            mask[box] = _grabcut(img[box], mask[box], self.known[box],
+                                 config.grabcut_scale, config.grabcut_iterations)
+        return mask
+
+
+def _grabcut(image: np.ndarray, mask: np.ndarray, known: np.ndarray, scale: float,
+             iterations: int) -> np.ndarray:
+    """GrabCut of one crop: known pixels fixed, never-seen foreground pixels to decide."""
+    unknown = mask & ~known
+    sure_fg = mask & known
+    sure_bg = ~mask
+    if not (sure_fg.any() and sure_bg.any()):
+        return mask                       # no colour model for one of the two sides
+    h, w = mask.shape
+    size = (max(8, int(round(w * scale))), max(8, int(round(h * scale))))
+    labels = np.full((h, w), cv2.GC_BGD, np.uint8)
+    labels[sure_fg] = cv2.GC_FGD
+    labels[unknown] = cv2.GC_PR_FGD
+    small = cv2.resize(labels, size, interpolation=cv2.INTER_NEAREST)
+    if not ((small == cv2.GC_FGD).any() and (small == cv2.GC_BGD).any()):
+        return mask
+    crop = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    bgd, fgd = np.zeros((1, 65)), np.zeros((1, 65))
+    cv2.setRNGSeed(0)                     # GrabCut's k-means start: same frame, same mask
+    cv2.grabCut(crop, small, None, bgd, fgd, int(iterations), cv2.GC_INIT_WITH_MASK)
+    person = (small == cv2.GC_FGD) | (small == cv2.GC_PR_FGD)
+    person = cv2.resize(person.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST)
+    return np.where(unknown, person.astype(bool), mask)
+
+
+def _shadow(x, bg, brightness, chromaticity) -> np.ndarray:
+    """Horprasert's test on (K, C) pixels: darker by α in ``brightness``, same chromaticity."""
+    from .silhouette import _shadow_pixels
+
+    return _shadow_pixels(x, bg, brightness, chromaticity)
+
+
+def plate_from_frames(frames: np.ndarray, config: SilhouetteConfig | None = None, *,
+                      keep: np.ndarray | None = None, unstable: bool = True) -> PlateBackground:
+    """A :class:`PlateBackground` from frames: the median plate and its robust noise.
+
+    Parameters
+    ----------
+    frames : (F, H, W, C) or (F, H, W) uint8 ndarray
+        Background frames (e.g. an empty background video), or a sequence with ``keep``.
+    config : SilhouetteConfig, optional
+        ``false_alarm`` and the shadow settings.
+    keep : (F, H, W) bool ndarray, optional
+        The samples showing the background (default all).
+    unstable : bool
+        Pixels whose kept samples spread beyond ``config.plate_unstable`` × the camera's noise
+        are unknown (foreground). The passes of :func:`learn_plates` leave it off (a region the
+        person crossed would otherwise turn foreground and grow the carved person pass after
+        pass); the final plate sets it.
+    """
+    config = config or _DEFAULT
+    frames = np.asarray(frames)
+    if frames.ndim == 3:
+        frames = frames[..., None]
+    if frames.ndim != 4 or len(frames) == 0:
+        raise InputError("background frames", f"expected (F, H, W, C) frames, got shape "
+                                              f"{frames.shape}")
+    plate, count, sigma = masked_median(frames, keep, quartiles=True)
+    known = count >= max(1, config.plate_min_seen)
+    if len(frames) >= 4:
+        # The per-pixel σ of a few samples is noisy: smooth it, and floor it at the camera's σ
+        # (compression noise is lowest on flat areas, never below the sensor's).
+        good = known & (count >= 4)
+        floor = float(np.median(sigma[good])) if good.any() else 1.0
+        # A pixel whose background samples spread far beyond the camera's noise is not a
+        # background: a person who never left it (moving, so it flickers) or a moving object.
+        # Unknown, hence foreground; the carving keeps what the other views confirm.
+        if unstable:
+            known &= ~(good & (sigma > config.plate_unstable * floor))
+        sigma = cv2.GaussianBlur(np.where(good, sigma, floor).astype(np.float32), (0, 0), 2.0)
+        sigma = np.clip(sigma, floor, config.plate_unstable * floor)
+    else:
+        sigma = np.full(plate.shape[:2], 2.0, np.float32)
+    return PlateBackground(plate, sigma, known, false_alarm=config.false_alarm,
+                           shadows=config.shadows, shadow_brightness=config.shadow_brightness,
+                           shadow_chromaticity=config.shadow_chromaticity)
+
+
+# ---------------------------------------------------------------------- person in 3D
+def person_component(occupancy: np.ndarray, *, merge: int = 1) -> np.ndarray:
+    """The person: the largest 26-connected component of ``occupancy`` (bool, same shape).
+
+    Fragments closer than ``merge`` voxels are joined first (a segmentation hole can split an arm
+    from the body); the result keeps only the original voxels of the chosen component.
+    """
+    occ = np.asarray(occupancy, bool)
+    if not occ.any():
+        return occ.copy()
+    grown = ndimage.binary_dilation(occ, iterations=merge) if merge > 0 else occ
+    labels, n = ndimage.label(grown, structure=np.ones((3, 3, 3), bool))
+    if n <= 1:
+        return occ.copy()
+    sizes = np.bincount(labels[occ], minlength=n + 1)
+    sizes[0] = 0
+    return occ & (labels == int(np.argmax(sizes)))
+
+
+def _ghost_blobs(mask: np.ndarray, image: np.ndarray, plate: np.ndarray, ratio: float,
+                 min_area: int) -> np.ndarray:
+    """Blobs of ``mask`` whose outline is an edge of the plate rather than of the image."""
+    n, labels, st, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    ghosts = np.zeros_like(mask)
+    if n <= 1:
+        return ghosts
+
+    def grad(img):
+        img = _channels(img)
+        g = cv2.cvtColor(np.ascontiguousarray(img.astype(np.uint8)), cv2.COLOR_BGR2GRAY) \
+            if img.shape[2] == 3 else img[:, :, 0].astype(np.uint8)
+        g = g.astype(np.float32)
+        return cv2.magnitude(cv2.Sobel(g, cv2.CV_32F, 1, 0), cv2.Sobel(g, cv2.CV_32F, 0, 1))
+
+    gi, gp = grad(image), grad(plate)
+    kernel = np.ones((3, 3), np.uint8)
+    for k in range(1, n):
+        if st[k, cv2.CC_STAT_AREA] < min_area:
+            continue
+        x, y, w, h = (int(st[k, i]) for i in (0, 1, 2, 3))
+        box = (slice(max(y - 2, 0), y + h + 2), slice(max(x - 2, 0), x + w + 2))
+        blob = (labels[box] == k).astype(np.uint8)
+        ring = (cv2.dilate(blob, kernel) - cv2.erode(blob, kernel)).astype(bool)
+        if ring.sum() < 8:
+            continue
+        if gp[box][ring].mean() > ratio * max(gi[box][ring].mean(), 1e-3):
+            ghosts[box] |= blob.astype(bool)
+    return ghosts
+
+
+# ---------------------------------------------------------------------- learning
+def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
+                 config: SilhouetteConfig | None = None, *, holes: int | None = None,
+                 max_side: int = 480, log: Callable[[str], None] | None = None,
+                 progress: Callable[[int, int], None] | None = None,
+                 observer: Callable[[int, dict, dict], None] | None = None
+                 ) -> dict[str, PlateBackground]:
+    """Learn one background plate per camera from frames of the sequence (person included).
+
+    Parameters
+    ----------
+    frames : mapping of str to (F, H, W, C) uint8 ndarray
+        The same ``F`` sampled frames of every camera (spread over the sequence).
+    cameras : sequence of Camera
+        The rig (names key ``frames``).
+    grid : VoxelGrid
+        A coarse grid over the capture area (40–60 mm voxels) for the carving.
+    config : SilhouetteConfig, optional
+        ``false_alarm``, shadows, ``plate_iterations``, ``plate_ghost_ratio``,
+        ``plate_max_unknown``, ``plate_min_seen``.
+    holes : int, optional
+        Silhouettes that may miss an occupied voxel (default: 1 with four or more cameras).
+    max_side : int
+        The iterations run on images downscaled to at most this many pixels on a side.
+    log : callable, optional
+        Receives one line per iteration.
+    progress : callable, optional
+        Called with ``(iteration, iterations)``.
+    observer : callable, optional
+        Called after each pass with ``(pass, plates, covered)`` (the downscaled plates and the
+        (F, H', W') covered masks per camera), for studies.
+
+    Returns
+    -------
+    dict of str to PlateBackground
+
+    Raises
+    ------
+    InputError
+        Frames missing or of different counts; no person found in any frame; a camera whose
+        background was never seen over more than ``plate_max_unknown`` of its image.
+    """
+    config = config or _DEFAULT
+    cameras = list(cameras)
+    names = [c.name for c in cameras]
+    missing = [n for n in names if n not in frames]
+    if missing:
+        raise InputError("background", f"no frames for camera(s) {', '.join(missing)}")
+    full = {n: np.asarray(frames[n]) for n in names}
+    full = {n: (f[..., None] if f.ndim == 3 else f) for n, f in full.items()}
+    counts = {len(f) for f in full.values()}
+    if len(counts) != 1 or 0 in counts:
+        raise InputError("background", "every camera needs the same, non-zero number of frames")
+    n_frames = counts.pop()
+    if holes is None:
+        holes = 1 if len(cameras) >= 4 else 0
+    small, small_cams = {}, []
+    for cam in cameras:
+        small_cams.append(camera_at_most(cam, max_side))
+        small[cam.name] = np.stack([_channels(cv2.resize(f, small_cams[-1].size,
+                                                         interpolation=cv2.INTER_AREA))
+                                    for f in full[cam.name]])
+    carver = Carver(small_cams, grid)
+
+    plates = {n: plate_from_frames(small[n], config, unstable=False) for n in names}
+    covered = {n: np.zeros(small[n].shape[:3], bool) for n in names}
+    iterations = max(1, int(config.plate_iterations))
+    volumes = np.zeros(n_frames)
+    for it in range(iterations):
+        person_frames = []
+        for f in range(n_frames):
+            masks = []
+            for cam in small_cams:
+                img = small[cam.name][f]
+                bg = plates[cam.name]
+                raw = bg.foreground(img)
+                raw = _clean(raw, config)
+                if config.plate_ghost_ratio > 0:
+                    raw &= ~_ghost_blobs(raw, img, bg.plate, config.plate_ghost_ratio,
+                                         max(config.min_area // 4, 8))
+                masks.append(raw)
+            person = person_component(carver.carve_with_holes(masks, holes))
+            person_frames.append((person, masks))
+            volumes[f] = person.sum()
+        # the typical person: the median over the frames where one was found (a few frames
+        # with a background person or a ghost glued on must not set the scale)
+        typical = float(np.median(volumes[volumes > 0])) if volumes.any() else 0.0
+        if typical == 0:
+            raise InputError("background", "no person found in any frame against the temporal "
+                                           "median of the sequence: cannot learn a background "
+                                           "plate; give empty background videos")
+        vanished = volumes < config.plate_vanish_share * typical
+        change = 0.0
+        for c, cam in enumerate(small_cams):
+            cov = covered[cam.name]
+            for f in range(n_frames):
+                person, masks = person_frames[f]
+                cov[f] = True if vanished[f] else _cover(
+                    person, carver, c, masks[c], support=person if config.plate_support else None)
+            old = plates[cam.name]
+            new = plate_from_frames(small[cam.name], config, keep=~cov, unstable=False)
+            # A pixel covered in every frame keeps its previous estimate while learning (the
+            # final plate marks it unknown): the next pass may uncover it.
+            fill = keep_count(cov) == 0
+            new = PlateBackground(np.where(fill[..., None], old.plate, new.plate),
+                                  np.where(fill, old.sigma, new.sigma),
+                                  np.where(fill, old.known, new.known),
+                                  false_alarm=config.false_alarm, shadows=config.shadows,
+                                  shadow_brightness=config.shadow_brightness,
+                                  shadow_chromaticity=config.shadow_chromaticity)
+            moved = np.sqrt(((new.plate - old.plate) ** 2).sum(axis=2)) > 3 * new.camera_sigma
+            change = max(change, float(moved.mean()))
+            plates[cam.name] = new
+        if log is not None:
+            log(f"background plate, pass {it + 1}: person in {int((~vanished).sum())} of "
+                f"{n_frames} frames (typical {typical * grid.voxel_size ** 3 / 1e9:.3f} m³), "
+                f"{100 * change:.2f} % of the pixels changed")
+        if progress is not None:
+            progress(it + 1, iterations)
+        if observer is not None:
+            observer(it + 1, plates, covered)
+        if change < 0.002:
+            break
+
+    if log is not None and typical * grid.voxel_size ** 3 < MIN_PERSON_MM3:
+        log(f"warning: the person carves into {typical * grid.voxel_size ** 3 / 1e6:.0f} litres "
+            "only: the learnt plate may still hold the person (who moved too little in the "
+            "sampled frames); empty background videos would be better")
+    return plates_from_covers(full, cameras, covered, config)
+
+
+def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
+                       covers: Mapping[str, np.ndarray], config: SilhouetteConfig | None = None
+                       ) -> dict[str, PlateBackground]:
+    """One plate per camera from frames of the sequence and where the person is in each.
+
+    Each pixel's background is estimated from the frames that do not cover it
+    (:func:`plate_from_frames`); a pixel covered in every frame is never seen (``known`` False).
+    :func:`learn_plates` finds the covers itself; a tracked body's image
+    (:func:`voxelmocap.score.cues.contours.body_mask`) is another source.
+
+    Parameters
+    ----------
+    frames : mapping of str to (F, H, W, C) or (F, H, W) uint8 ndarray
+        The same ``F`` frames of every camera.
+    cameras : sequence of Camera
+        The rig (names key ``frames`` and ``covers``).
+    covers : mapping of str to (F, h, w) bool ndarray
+        The person's pixels per frame, at any resolution (resized to the frames').
+    config : SilhouetteConfig, optional
+
+    Returns
+    -------
+    dict of str to PlateBackground
+
+    Raises
+    ------
+    InputError
+        A camera whose background was never seen over more than ``plate_max_unknown`` of its
+        image, or covers that do not match the frames.
+    """
+    config = config or _DEFAULT
+    out = {}
+    for cam in cameras:
+        frames_c = np.asarray(frames[cam.name])
+        frames_c = frames_c[..., None] if frames_c.ndim == 3 else frames_c
+        cover = np.asarray(covers[cam.name], bool)
+        if len(cover) != len(frames_c):
+            raise InputError(f"background of {cam.name}",
+                             f"{len(cover)} covers for {len(frames_c)} frames")
+        h, w = frames_c.shape[1:3]
+        keep = ~np.stack([cv2.resize(c.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST)
+                          .astype(bool) for c in cover])
+        plate = plate_from_frames(frames_c, config, keep=keep)
+        unknown = 1.0 - float(plate.known.mean())
+        if unknown > config.plate_max_unknown:
+            raise InputError(f"background of {cam.name}",
+                             f"the person covers {100 * unknown:.0f} % of the image in every "
+                             "sampled frame: its background cannot be learnt from the sequence; "
+                             "give an empty background video")
+        out[cam.name] = plate
+    return out
+
+
+def keep_count(covered: np.ndarray) -> np.ndarray:
+    """(H, W) number of frames in which each pixel is not covered."""
+    return (~covered).sum(axis=0)
+
+
+def _clean(mask: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
+    from .silhouette import clean_mask
+
+    return clean_mask(mask, open_radius=1, close_radius=max(config.close_radius, 2),
+                      min_area=max(config.min_area // 4, 8), fill_holes=True)
+
+
+def _pixels_of(voxels: np.ndarray, carver: Carver, c: int) -> np.ndarray:
+    """(H, W) uint8: 1 at the pixels of camera ``c`` that the voxels' centres project to."""
+    w, h = carver.cameras[c].size
+    out = np.zeros((h, w), np.uint8)
+    idx = carver.tables[c][voxels.reshape(-1)]
+    out.reshape(-1)[idx[idx >= 0] - int(carver._offsets[c])] = 1
+    return out
+
+
+def _cover(person: np.ndarray, carver: Carver, c: int,
+           seen: np.ndarray | None = None, *, support: np.ndarray | None = None) -> np.ndarray:
+    """Pixels of camera ``c`` covered by the person.
+
+    The pixels of its voxels, dilated by a voxel's footprint and a margin, then closed with a
+    disk of :data:`COVER_CLOSING` × the person's height in the image, holes filled: a torso that
+    the plate absorbed (not carved) between carved arms and legs is covered too, without the
+    whole convex hull under outstretched arms.
+
+    With ``support`` (an occupancy: the person), the voxels under it down to the grid's floor
+    are covered too, whether this view saw them or not (see below in the code).
+
+    The person's cast shadow is not covered: a shadow that stays in one place for most of the
+    frames ends up in the plate (and is then taken for background where it is, foreground
+    where it left); covering a floor zone around the feet was tried and kept the place where
+    the person stood covered in every frame of a short sequence.
+    """
+    cam = carver.cameras[c]
+    out = _pixels_of(person, carver, c)
+    if not out.any():
+        return out.astype(bool)
+    rows = np.flatnonzero(out.any(axis=1))
+    # a voxel's footprint: its half-diagonal at the person's depth
+    grid = carver.grid
+    centre = grid.centre_of(np.argwhere(person).mean(axis=0))
+    depth = max(float((np.asarray(cam.R) @ centre + np.asarray(cam.T))[2]), grid.voxel_size)
+    r = int(np.ceil(max(cam.fc) * grid.voxel_size * 0.87 / depth)) + 2
+    out = cv2.dilate(out, _disk(r))
+    if seen is not None:
+        # the carve of a few views is fatter than the person: keep what this view saw, near
+        out &= cv2.dilate(seen.astype(np.uint8), _disk(2 * r))
+    if support is not None and support.any():
+        # What lies under the person down to the floor is covered whatever this view saw: legs
+        # the first plate absorbed (a subject who stands in one place) are missing from the
+        # view's mask and the carve, so they were never covered and stayed in the plate.
+        under = np.cumsum(support[:, :, ::-1], axis=2)[:, :, ::-1] > 0
+        out |= cv2.dilate(_pixels_of(under & ~support, carver, c), _disk(r))
+    close = int(COVER_CLOSING * (rows.max() - rows.min() + 2 * r))
+    if close > 0:
+        pad = close + 1
+        out = cv2.morphologyEx(cv2.copyMakeBorder(out, pad, pad, pad, pad, cv2.BORDER_CONSTANT),
+                               cv2.MORPH_CLOSE, _disk(close))[pad:-pad, pad:-pad]
+    return _fill_holes(out.astype(bool))
+
+
+def _disk(r: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+
+
+def _fill_holes(mask: np.ndarray) -> np.ndarray:
+    return ndimage.binary_fill_holes(mask)

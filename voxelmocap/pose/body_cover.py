@@ -1,0 +1,85 @@
+"""The person's cover from a tracked body: where a previous run saw the person, per camera.
+
+A plate learnt from the sequence needs to know, in each sampled frame, which pixels the person
+covers (:func:`voxelmocap.measure.background.plates_from_covers`).
+:func:`~voxelmocap.measure.background.learn_plates`
+finds them by carving against a first plate; a body tracked by a previous run
+(``track --plate-from RUN``) gives them directly: its cones drawn in each camera
+(:func:`voxelmocap.score.cues.contours.body_mask`), grown by a margin. Pure: the run is read by
+:func:`voxelmocap.run.pipeline.tracked_body`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["TrackedBody", "plate_covers_of"]
+
+
+@dataclass(frozen=True)
+class TrackedBody:
+    """A previous run's body over the frames it tracked: a plate's cover (``--plate-from``).
+
+    Attributes
+    ----------
+    model : BodyModel
+        The body the run tracked with.
+    frames : (F,) int ndarray
+        Frame numbers, increasing (the frames where the run saw the person).
+    states : (F, 27) float ndarray
+        The tracked state of each.
+    source : str
+        Where it was read (for messages).
+    """
+
+    model: object
+    frames: np.ndarray
+    states: np.ndarray
+    source: str
+
+
+def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
+                    ) -> dict[str, np.ndarray]:
+    """Each camera's image of the body in each state, grown by ``margin``: a plate's cover.
+
+    Drawn at most ``max_side`` pixels on a side (the resolution :func:`learn_plates` finds its
+    covers at; :func:`~voxelmocap.measure.background.plates_from_covers` resizes them).
+
+    Parameters
+    ----------
+    rig : sequence of Camera
+    model : BodyModel
+    states : (F, 27) array_like
+    margin : float
+        Millimetres at the body's depth (the tracked cones are not the person's exact outline).
+    max_side : int
+
+    Returns
+    -------
+    dict of str to (F, h, w) bool ndarray
+    """
+    import cv2
+
+    from ..measure.background import camera_at_most
+    from ..score.cues.contours import body_mask
+
+    states = np.asarray(states, float)
+    geos = [model.geometry(states[f:f + 1], legal=False) for f in range(len(states))]
+    out = {}
+    for cam in rig:
+        small = camera_at_most(cam, max_side)
+        masks = []
+        for geo in geos:
+            m = body_mask(geo, small)
+            depth = small.world_to_camera(geo.base[0].mean(axis=0)[None])[0, 2]
+            if m.any() and margin > 0 and depth > 0:
+                # grown by the margin's image at the body's depth (a distance transform: its
+                # cost does not grow with the radius, which is large for a body near the lens)
+                r = max(small.fc) * margin / depth
+                far = cv2.distanceTransform((~m).astype(np.uint8), cv2.DIST_L2, 5)
+                m = far <= r
+            masks.append(m)
+        out[cam.name] = np.stack(masks)
+    return out
