@@ -121,7 +121,7 @@ def silhouettes(args) -> None:
     t0 = time.perf_counter()
     plate_body = None
     if args.plate_from is not None:  # the plate of a pass learnt from an earlier run's body
-        from voxelmocap.run.pipeline import tracked_body
+        from voxelmocap.run.bodies import tracked_body
 
         plate_body = tracked_body(args.plate_from, seq)
     runner = MeasurementRunner(seq, _config(args), log=print, plate_body=plate_body)
@@ -348,9 +348,9 @@ def diagnose(args) -> None:
     from voxelmocap.io.sequence import open_sequence
     from voxelmocap.joints import LANDMARK_NAMES
     from voxelmocap.pose.tracker import BodyTracker
+    from voxelmocap.run.bodies import tracked_body
     from voxelmocap.run.inspection import result_body_model
     from voxelmocap.run.measurement import MeasurementRunner
-    from voxelmocap.run.pipeline import tracked_body
 
     if args.mediapipe_masks:
         _use_mediapipe_masks(args.ref)

@@ -100,8 +100,8 @@ def compare_run(bench: Path, out: Path, action: str, strategy: str, seed: int,
 def proposal_cost(bench: Path, out: Path, action: str, seed: int) -> dict:
     """Median ms of one detector proposal per frame (warm start: the apf run's estimates)."""
     from voxelmocap.body import BodyModel
+    from voxelmocap.pose.filter_setup import noise_profile
     from voxelmocap.pose.recovery import detector_proposal
-    from voxelmocap.pose.tracker import noise_profile
     from voxelmocap.run.measurement import MeasurementRunner
 
     index = [a for _, a, _ in CLIPS].index(action)

@@ -25,8 +25,10 @@ import numpy as np
 
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
-from voxelmocap.pose.tracker import BodyTracker, ground_truth_landmarks
-from voxelmocap.run.pipeline import MeasurementRunner, body_model_for
+from voxelmocap.pose.starts import ground_truth_landmarks
+from voxelmocap.pose.tracker import BodyTracker
+from voxelmocap.run.bodies import body_model_for
+from voxelmocap.run.measurement import MeasurementRunner
 from voxelmocap.synth import generate
 
 

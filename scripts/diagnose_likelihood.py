@@ -28,7 +28,8 @@ from voxelmocap.body import fit_to_landmarks
 from voxelmocap.config import TrackConfig
 from voxelmocap.io.humaneva import Dataset
 from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.run.pipeline import MeasurementRunner, body_model_for
+from voxelmocap.run.bodies import body_model_for
+from voxelmocap.run.measurement import MeasurementRunner
 from voxelmocap.score.likelihood import log_likelihood_from_scores, part_scores
 
 

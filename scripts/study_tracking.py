@@ -214,7 +214,7 @@ def measurements(data: Path, motion: str, config: TrackConfig):
     cached per measurement setting (surface_sigma is applied later, it does not change carving)."""
     from voxelmocap.grid import VoxelGrid
     from voxelmocap.io.humaneva import Dataset
-    from voxelmocap.run.pipeline import MeasurementRunner
+    from voxelmocap.run.measurement import MeasurementRunner
 
     mc = config.measurement
     key = json.dumps({"voxel": mc.voxel_size, "min_views": mc.min_views,
@@ -247,7 +247,7 @@ def measurements(data: Path, motion: str, config: TrackConfig):
 def truth(data: Path, motion: str):
     """(sequence, ground truth, body model) as the pipeline builds them."""
     from voxelmocap.io.humaneva import Dataset
-    from voxelmocap.run.pipeline import body_model_for
+    from voxelmocap.run.bodies import body_model_for
 
     seq = Dataset(data).sequence("S1", f"{ACTIONS[motion]}_1")
     gt = seq.ground_truth()
@@ -265,7 +265,10 @@ def track_cached(frames, occ, grid, gt, model, config: TrackConfig, seed: int,
 
     Returns (states (F, 27), endpoints (F, 20, 3), filter seconds per frame).
     """
-    from voxelmocap.pose.tracker import BodyTracker, Collector, ground_truth_landmarks, noise_profile
+    from voxelmocap.pose.filter_setup import noise_profile
+    from voxelmocap.pose.records import Collector
+    from voxelmocap.pose.starts import ground_truth_landmarks
+    from voxelmocap.pose.tracker import BodyTracker
     from voxelmocap.score.likelihood import Measurement
 
     noise = None if profile is None else PROFILES[profile](model, config, noise_profile)
