@@ -24,6 +24,8 @@ Examples::
 
 Settings are named cue selections (``SETTINGS``); a setting needing voxels is skipped below two
 cameras (the product refuses it), and ``fused`` then means the image cues' fusion (``image``).
+
+Feeds docs/benchmarks.md, "Image cues" (the rendered clips' tables and the cost per particle).
 """
 
 from __future__ import annotations

@@ -14,6 +14,8 @@ JSON line per setting is appended to ``--json``: mean / median error, share with
     python scripts/bench_cues_real.py --out /tmp/cues_real --layers 4 --particles 150 \\
         --settings voxel,fused4,roi,edges,dt,blob3d,skin,uniform,voxel_hier --json real.jsonl
     python scripts/bench_cues_real.py --table real.jsonl
+
+Feeds docs/benchmarks.md, "Image cues" (the Pose2Sim demo's table).
 """
 
 from __future__ import annotations

@@ -39,6 +39,10 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
     python scripts/bench_real.py overlays RUN --out docs/images
     python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
     python scripts/bench_real.py diagnose RUN --every 5 [--mediapipe-masks] [--unseen count] [--refine 400]
+
+Feeds docs/benchmarks.md, "Real recording (Pose2Sim demo)" (``landmarks``), "Silhouettes (Pose2Sim demo)"
+(``silhouettes``) and "Carving" (``carving``: the rules on the demo); ``diagnose`` and
+``oracle-track`` are the diagnostics those sections quote.
 """
 
 from __future__ import annotations

@@ -18,6 +18,8 @@ warm-started from the tracked estimate of the frame before).
 Usage::
 
     python scripts/bench_recovery.py [--absence] [--compare Walking,Jog] [--out /tmp/bench_recovery]
+
+Feeds docs/benchmarks.md, "Recovery".
 """
 
 from __future__ import annotations

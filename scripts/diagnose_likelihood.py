@@ -13,6 +13,9 @@ Usage::
 
     python scripts/diagnose_likelihood.py --data DATA --run OUT/with_answer/seed0 \\
         [--every 20] [--do 0.01,0.03,0.1,0.3] [--parts]
+
+Feeds docs/benchmarks.md, "Likelihood" (does the likelihood prefer the truth: the double-occupancy
+table).
 """
 
 from __future__ import annotations

@@ -27,9 +27,10 @@ def noise_profile(model, config: TrackConfig) -> np.ndarray:
     unobservable (no part spans the pelvis), so a compensating root pitch + waist flexion + hip
     flexion change costs almost nothing in the likelihood. With the limbs' larger noise on the
     waist the filter random-walked along that direction (root pitch −40°, waist +44° after 6
-    frames of a walk) and lost the legs. Measured with ``scripts/study_tracking.py`` (synthetic,
-    7 cameras, 6 × 300 particles, ``joint_std_rad`` 0.1): trunk on the limbs' noise → on the
-    root's: walk μ 58 → 59 mm (5 seeds, no change), jog 67 → 60 mm, box 68 → 56 mm (3 seeds);
+    frames of a walk) and lost the legs. Measured with ``scripts/study_tracking.py`` (a one-off
+    study, removed; in git before 4253368) (synthetic, 7 cameras, 6 × 300 particles,
+    ``joint_std_rad`` 0.1): trunk on the limbs' noise → on the root's: walk μ 58 → 59 mm
+    (5 seeds, no change), jog 67 → 60 mm, box 68 → 56 mm (3 seeds);
     ``docs/benchmarks.md``, tracking accuracy study.
     """
     fc = config.filter
