@@ -30,7 +30,7 @@ Per run:
 
 ``--start-turned`` starts every run turned 180° on purpose (the config key ``init.start_turned
 = true``, the tracker's test hook) and reports at which frame each run turned round (issue 33:
-within 30 frames).
+within 30 frames, counted here as "turned round at" frame 30 or earlier).
 
 A render whose ground truth leaves the cameras' common view (some endpoint unseen by some camera,
 ``voxelmocap.synth.heading.frames_out_of_view``) is reported, and its runs are marked ``!``.
@@ -57,6 +57,7 @@ import csv
 import hashlib
 import io
 import json
+import multiprocessing
 import os
 import sys
 import time
@@ -389,7 +390,8 @@ def main(argv=None) -> int:
         os.environ["NUMBA_NUM_THREADS"] = "1"
     records, failed = [], []
     unique = {r["key"]: r for r in runs}
-    with ProcessPoolExecutor(args.jobs) as pool:
+    # spawn, not fork: the workers start clean (no numba or BLAS threads inherited)
+    with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {pool.submit(make_render, {k: v for k, v in r.items() if k != "seed"},
                                str(renders), str(mocap)): key for key, r in unique.items()}
         for fut in as_completed(futures):
