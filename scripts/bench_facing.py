@@ -37,10 +37,12 @@ A render whose ground truth leaves the cameras' common view (some endpoint unsee
 
 Everything is cached under ``--out``: renders by (clip, heading, noise seed, frames) in
 ``renders/``, runs in ``<protocol>/<tag>/<render>/seed<k>/`` (a run whose result and
-``score.json`` exist is not run again; an interrupted one resumes). ``<tag>`` names the settings
-(``--tag``; default ``default``, or ``cfg-<hash>`` of the config when ``--config`` / ``--set`` /
-``--start-turned`` change it). The records go to ``<protocol>/<tag>/results.json`` and
-``results.csv``, the printed summary to ``summary.txt``.
+``score.json`` exist is not run again; an interrupted one resumes). ``<tag>`` names the code and
+settings: ``--tag``, by default ``<commit>_default`` or ``<commit>_cfg-<hash of the config>``
+when ``--config`` / ``--set`` / ``--start-turned`` change it (``<commit>`` the checkout's short
+hash, ``-dirty`` with uncommitted changes under ``voxelmocap/``), so a new commit never reuses
+an older one's results; pass ``--tag`` to resume across commits. The records go to
+``<protocol>/<tag>/results.json`` and ``results.csv``, the printed summary to ``summary.txt``.
 
 Usage::
 
@@ -59,6 +61,8 @@ import io
 import json
 import multiprocessing
 import os
+import resource
+import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -172,21 +176,29 @@ def run_one(run: dict, renders: str, runs_dir: str, config_toml: str) -> dict:
     folder = Path(renders) / run["key"]
     render = json.loads((folder / "render.json").read_text())
     messages: list[str] = []
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), _cpu_seconds()
     outcome = track_sequence(folder / "stripped", run["subject"], seq_name, run_dir,
                              config=config_from_toml(config_toml, "bench config"),
                              seed=run["seed"], frames=f"1:{run['frames']}", resume=True,
                              progress=False, log=messages.append)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, _cpu_seconds() - cpu0
     gt_path = Dataset(folder / "data").sequence(run["subject"], seq_name).ground_truth_path
     ev = score_against(outcome.result_path, gt_path, delta=DELTA)
     record = {**run, **judge(ev), "mu_mm": ev.scores.mu_mm, "mmta_pct": ev.scores.mmta_pct,
-              "wall_seconds": round(wall, 1), "seconds_per_frame": outcome.seconds_per_frame,
+              "wall_seconds": round(wall, 1), "cpu_seconds": round(cpu, 1),
+              "seconds_per_frame": outcome.seconds_per_frame,
               "resumed_from": outcome.resumed_from, "init_method": outcome.init_method,
               "out_of_view_frames": len(render["out_of_view_frames"])}
     (run_dir / "messages.txt").write_text("\n".join(messages) + "\n")
     _write_json(score, record)
     return record
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process, all its threads (user + system, s): a shared machine's wall
+    time says little."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def judge(ev) -> dict:
@@ -242,7 +254,8 @@ def run_line(r: dict) -> str:
             f"{'ok   ' if r['facing_right'] else 'WRONG'}  L/R "
             f"{'ok' if not wrong else 'swapped ' + ','.join(wrong)}  "
             f"μ {r['mu_mm']:6.1f} mm  MMTA {r['mmta_pct']:5.1f} %  turned round at {turned}  "
-            f"[{r['wall_seconds']:.0f} s, {r['seconds_per_frame']:.2f} s/frame]{view}")
+            f"[{r['wall_seconds']:.0f} s wall, {r.get('cpu_seconds', float('nan')):.0f} s CPU, "
+            f"{r['seconds_per_frame']:.2f} s/frame]{view}")
 
 
 def summary(records, protocol: str, start_turned: bool) -> str:
@@ -290,13 +303,13 @@ def write_tables(records, folder: Path, text: str) -> None:
     _write_json(folder / "results.json", records)
     cols = ["action", "heading", "noise_seed", "seed", "frames", "heading_error_deg",
             "facing_right", "left_right_right", "turned_round_at", "mu_mm", "mmta_pct",
-            "wall_seconds", "seconds_per_frame", "out_of_view_frames"]
+            "wall_seconds", "cpu_seconds", "seconds_per_frame", "out_of_view_frames"]
     buf = io.StringIO()
     writer = csv.writer(buf)
     pairs = list(records[0]["left_right"]) if records else []
     writer.writerow(cols + pairs)
     for r in records:
-        writer.writerow([r[c] for c in cols] + [r["left_right"][p] for p in pairs])
+        writer.writerow([r.get(c) for c in cols] + [r["left_right"][p] for p in pairs])
     atomic_write_text(folder / "results.csv", buf.getvalue())
     atomic_write_text(folder / "summary.txt", text + "\n")
 
@@ -317,12 +330,27 @@ def build_config(args):
     config = with_overrides(config, **overrides)
     text = config_to_toml(config)
     if args.tag:
-        tag = args.tag
-    elif text == config_to_toml(TrackConfig()):
-        tag = "default"
-    else:
-        tag = "cfg-" + hashlib.sha1(text.encode()).hexdigest()[:8]
-    return text, tag
+        return text, args.tag
+    settings = ("default" if text == config_to_toml(TrackConfig())
+                else "cfg-" + hashlib.sha1(text.encode()).hexdigest()[:8])
+    return text, f"{code_version()}_{settings}"
+
+
+def code_version() -> str:
+    """Short commit of the checkout the package is imported from (``-dirty`` when its
+    ``voxelmocap/`` has uncommitted changes), ``nogit`` outside git: results of one code
+    version are never resumed by another."""
+    import voxelmocap
+
+    root = Path(voxelmocap.__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "voxelmocap"],
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "nogit"
+    return head + ("-dirty" if dirty else "")
 
 
 def main(argv=None) -> int:
@@ -343,8 +371,8 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="config override, e.g. filter.particles=300 (repeatable; VALUE "
                              "parsed as TOML)")
-    parser.add_argument("--tag", help="name of these settings' run folder (default: 'default' "
-                                      "or a hash of the config)")
+    parser.add_argument("--tag", help="name of these settings' run folder (default: "
+                                      "<commit>_default or <commit>_cfg-<hash of the config>)")
     parser.add_argument("--start-turned", action="store_true",
                         help="start every run turned 180° (init.start_turned = true) and report "
                              "when it turned round")
