@@ -340,7 +340,7 @@ def test_multistart_keeps_the_likeliest_start(walk_without_answer, tmp_path):
     # Unit level: each start is an independent tracker; the kept one is the likeliest and its
     # records equal a lone tracker started from the same pose with the same random stream.
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.pose.starts import MultiStart
+    from voxelmocap.pose.multistart import MultiStart
     from voxelmocap.pose.tracker import BodyTracker
     from voxelmocap.score.likelihood import Measurement, rasterise
 

@@ -352,6 +352,16 @@ class FilterConfig:
     #: exchanged (``voxelmocap.pose.limb_search.swapped_limbs``): legs crossed onto each other's
     #: voxels are one move from right, which a search of one limb cannot make
     limb_swaps: bool = False
+    #: every this many frames, score the estimate against its turned-round twin (the body
+    #: turned 180° in place, left and right exchanged, its limbs searched over their ranges;
+    #: ``voxelmocap.pose.facing``) with the likelihood and the facing evidence, and turn the
+    #: track round when the twin wins by more than ``facing_margin``; 0 = never
+    facing_check_every: int = 0
+    #: log-likelihood units the twin must win by (likelihood + ``facing_weight`` × evidence)
+    facing_margin: float = 2.0
+    #: log-likelihood units per unit of facing evidence (feet in front of the ankles, the
+    #: direction of travel; each in [−1, 1]) in the facing check and the multi-start's choice
+    facing_weight: float = 0.0
 
     def filter_options(self) -> dict:
         """The ``AnnealedParticleFilter`` keyword options beyond sizes, strategy and noise."""
@@ -409,6 +419,9 @@ class InitConfig:
     #: searched: seed 2 105 mm; none: 73 / 69 / 67 mm, the left arm of seed 0 off for its
     #: first 10 frames; docs/benchmarks.md)
     previous_pass_start: int = 3
+    #: test hook: start turned round (``voxelmocap.pose.facing.turned_round`` of the start), to
+    #: check that the facing check turns a wrong start back
+    start_turned: bool = False
 
 
 #: Formats ``track`` and ``export`` write (:mod:`voxelmocap.io.exports`).
@@ -667,6 +680,11 @@ def _check_ranges(obj, prefix: str, source) -> None:
             raise InputError(source, f"key '{prefix}.limb_sweep_samples' must be >= 2")
         if not obj.limb_sweep_max_hull > 0:
             raise InputError(source, f"key '{prefix}.limb_sweep_max_hull' must be > 0")
+        if obj.facing_check_every < 0:
+            raise InputError(source, f"key '{prefix}.facing_check_every' must be >= 0")
+        if not (obj.facing_margin >= 0 and obj.facing_weight >= 0):
+            raise InputError(source, f"keys '{prefix}.facing_margin' and '{prefix}.facing_weight' "
+                                     "must be >= 0")
         if obj.refine_evaluations < 0:
             raise InputError(source, f"key '{prefix}.refine_evaluations' must be >= 0")
         for name in ("trunk_particles", "limb_particles"):

@@ -162,7 +162,15 @@ class BodyTracker:
         (:meth:`_paper_likelihood`); the tracking that follows uses ``[likelihood] coverage``.
         """
         with self._paper_likelihood():
-            return self._initial_state(observation, ground_truth, frame=frame)
+            phrase, states = self._initial_state(observation, ground_truth, frame=frame)
+        if self.config.init.start_turned:   # the test hook: a start facing the wrong way
+            from .facing import turned_round
+
+            rows = np.atleast_2d(states)
+            turned = np.stack([turned_round(self.model, row) for row in rows])
+            states = turned.reshape(np.shape(states))
+            phrase += "; turned round on purpose (init.start_turned)"
+        return phrase, states
 
     def _initial_state(self, observation, ground_truth, *, frame) -> tuple[str, np.ndarray]:
         from ..body import fit_to_landmarks
@@ -395,6 +403,10 @@ class BodyTracker:
         every = self.config.filter.limb_sweep_every
         if every and pf.frame % every == 0 and self._hull_is_tight(observation):
             est = self._sweep_estimate(observation, est)
+        note = ""
+        every = self.config.filter.facing_check_every
+        if every and pf.frame % every == 0:
+            est, note = self._check_facing(observation, est)
         # One forward-kinematics pass of the estimate: its landmarks, its endpoints (joints
         # picked by index) and the cones its part scores are counted in.
         kinematics = self.model.forward(est)
@@ -415,10 +427,40 @@ class BodyTracker:
             likelihood_seconds=spent[0],
             landmark_spread=spread,
             confidence=landmark_confidence(spread, scores, self.model.part_names),
+            note=note,
         )
         for observer in self.observers:
             observer(record, self)
         return record
+
+    def _check_facing(self, observation, est):
+        """The estimate ``(1, 27)`` or its turned-round twin, whichever the frame prefers, and a
+        note when the track turned round (``[filter] facing_check_every``).
+
+        The twin (:func:`voxelmocap.pose.facing.turned_round`: the body turned 180° in place,
+        left and right exchanged) has its limbs searched over their ranges on this frame, then
+        both are scored by the tracking likelihood plus ``facing_weight`` × the facing evidence
+        (:func:`~voxelmocap.pose.facing.facing_evidence`); the twin is taken when it wins by
+        more than ``facing_margin``, and the particles follow it without carrying the motion
+        across the turn."""
+        from .facing import facing_evidence, turned_round
+        from .limb_search import sweep_limbs
+
+        fc = self.config.filter
+        twin = turned_round(self.model, est[0])
+        twin, _ = sweep_limbs(observation, self.model, twin, variances=self.variances,
+                              coverage=self.coverage, sweeps=1, seed=self.filter.frame,
+                              samples=fc.limb_sweep_samples, others=self._other_cues(observation),
+                              voxel_weight=self._voxel_weight)
+        both = np.stack([est[0], twin])
+        value = self.log_likelihood(observation)(both)
+        if fc.facing_weight:
+            value = value + fc.facing_weight * facing_evidence(observation, self.model, both)
+        gain = float(value[1] - value[0])
+        if gain <= fc.facing_margin:
+            return est, ""
+        self.filter.move_estimate(twin, keep_motion=False)
+        return twin[None], f"turned round (the twin facing the other way won by {gain:.1f})"
 
     def _record_log_likelihood(self, observation, est, scores) -> float:
         """The selected cues' value of the estimate, the voxel cue's without the coverage term

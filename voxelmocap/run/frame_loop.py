@@ -27,7 +27,8 @@ import numpy as np
 from ..config import config_to_toml
 from ..errors import InputError
 from ..logs import run_started
-from ..pose.starts import MultiStart, ground_truth_landmarks
+from ..pose.multistart import MultiStart
+from ..pose.starts import ground_truth_landmarks
 from ..pose.tracker import BodyTracker
 from .bodies import body_model_for, dimensions_json, model_from_attrs, sized_model, voxel_height
 from .outputs import frame_list, kernels_cached, landmark_exports, write_exports
