@@ -419,8 +419,8 @@ class InitConfig:
     #: searched: seed 2 105 mm; none: 73 / 69 / 67 mm, the left arm of seed 0 off for its
     #: first 10 frames; docs/benchmarks.md)
     previous_pass_start: int = 3
-    #: test hook: start turned round (``voxelmocap.pose.facing.turned_round`` of the start), to
-    #: check that the facing check turns a wrong start back
+    #: test hook: start from the best start alone, turned round
+    #: (``voxelmocap.pose.facing.turned_round``), to check that the facing check turns it back
     start_turned: bool = False
 
 

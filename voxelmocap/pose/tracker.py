@@ -163,13 +163,13 @@ class BodyTracker:
         """
         with self._paper_likelihood():
             phrase, states = self._initial_state(observation, ground_truth, frame=frame)
-        if self.config.init.start_turned:   # the test hook: a start facing the wrong way
+        if self.config.init.start_turned:
+            # The test hook: the best start alone (no multi-start to choose another), turned
+            # round — a track that starts facing the wrong way on purpose.
             from .facing import turned_round
 
-            rows = np.atleast_2d(states)
-            turned = np.stack([turned_round(self.model, row) for row in rows])
-            states = turned.reshape(np.shape(states))
-            phrase += "; turned round on purpose (init.start_turned)"
+            states = turned_round(self.model, np.atleast_2d(states)[0])
+            phrase += "; its best start turned round on purpose (init.start_turned)"
         return phrase, states
 
     def _initial_state(self, observation, ground_truth, *, frame) -> tuple[str, np.ndarray]:
