@@ -113,7 +113,7 @@ def track(request: TrackRequest) -> TrackOutcome:
             say(f"warning: pass {p.number} saw the person in {outcome.frames_with_person} "
                 f"frame(s), fewer than the {MIN_BODY_FRAMES} a plate from its body needs: the "
                 "last pass tracks as it did")
-            passes = passes[:k] + (p.as_last(),)
+            passes = passes[:k + 1] + (p.as_last(),)
         else:
             body = outcome.tracked
         k += 1
