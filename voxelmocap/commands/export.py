@@ -14,8 +14,9 @@ def add_parser(subparsers) -> None:
                     "one of a run folder) into landmark files at the result's frame rate, in mm, "
                     "in the calibration's world frame: TRC (OpenSim, Pose2Sim), C3D (residual = "
                     "the particle spread) and a tidy CSV with a confidence column. Written "
-                    "beside each result as <Action>_<Trial>.<ext>, or "
-                    "<Action>_<Trial>_butterworth<HZ>Hz.<ext> when smoothed (docs/outputs.md).",
+                    "beside each result as <Action>_<Trial>.<ext>, with _butterworth<HZ>Hz "
+                    "before the extension when smoothed and _yup in OpenSim's Y-up axes "
+                    "(docs/outputs.md).",
     )
     parser.add_argument("source", metavar="RUN_OR_H5", help="a result file or a run folder")
     parser.add_argument("--format", default="trc,csv", metavar="FORMATS",
@@ -27,7 +28,9 @@ def add_parser(subparsers) -> None:
                              "Butterworth run forward and backward)")
     parser.add_argument("--axes", choices=("world", "y_up"), default="world",
                         help="world: the calibration's frame, Z up (default); y_up: OpenSim's "
-                             "Y-up axes, as Pose2Sim writes")
+                             "Y-up axes, as Pose2Sim writes (files named …_yup.<ext>; the TRC's "
+                             "first line, the C3D's POINT:X_SCREEN/Y_SCREEN and the CSV's "
+                             "x_yup_mm… columns say so)")
     parser.add_argument("--out", help="folder for the files (default: beside each result)")
     parser.set_defaults(run=run)
 
