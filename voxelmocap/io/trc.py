@@ -68,7 +68,7 @@ class TrcData:
 
 
 def write_trc(path, positions, names, *, frame_rate: float, frames=None, axes: str = "world",
-              units: str = "mm") -> Path:
+              units: str = "mm", file_name: str | None = None) -> Path:
     """Write trajectories as a TRC file (atomically).
 
     Parameters
@@ -87,6 +87,8 @@ def write_trc(path, positions, names, *, frame_rate: float, frames=None, axes: s
         The frame of ``positions``, named on line 1 (:data:`AXES_NOTES`).
     units : {"mm", "m"}
         The file's units (``positions`` are converted from mm).
+    file_name : str, optional
+        The name on line 1 (default: ``path``'s; for a file written under a temporary name).
 
     Returns
     -------
@@ -112,7 +114,7 @@ def write_trc(path, positions, names, *, frame_rate: float, frames=None, axes: s
     rate = f"{float(frame_rate):g}"
     start = int(frames[0]) if n else 1
     lines = [
-        f"PathFileType\t4\t(X/Y/Z)\t{path.name}\t{AXES_NOTES[axes]}",
+        f"PathFileType\t4\t(X/Y/Z)\t{file_name or path.name}\t{AXES_NOTES[axes]}",
         "\t".join(_HEADER_KEYS),
         "\t".join([rate, rate, str(n), str(m), units, rate, str(start), str(n)]),
         "Frame#\tTime\t" + "\t\t\t".join(names) + "\t\t",
