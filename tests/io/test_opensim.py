@@ -103,7 +103,7 @@ def test_the_tracked_body_comes_from_the_result_and_is_checked(tmp_path, caplog)
     assert where == "measured from the tracked landmarks"
     assert found.shin == pytest.approx((380.0, 380.0)) and "differs" in caplog.text
     res.landmarks[:] = np.nan
-    with pytest.raises(InputError, match="no frame has all 15 landmarks"):
+    with pytest.raises(InputError, match="no frame with a person and all 15 landmarks"):
         tracked_body(res, "a.h5")
 
 
@@ -317,3 +317,20 @@ def test_export_opensim_of_a_tracked_walk(tracked_walk, walk_dataset, capsys):
         assert np.all(off <= bound + 0.1), (off, bound)
         assert off.mean() < 10.0, off
         assert np.abs(mot[f"hip_flexion_{side}"] - hip_flexion(truth, side)).mean() < 12.0
+
+
+@osim_needed
+def test_a_failing_inverse_kinematics_leaves_nothing_behind(tmp_path, monkeypatch, capsys):
+    import voxelmocap.io.opensim as handoff
+
+    model = BodyModel()
+    _result(tmp_path / "a.h5", model.landmarks(_moving_states(model, 4, seed=2)),
+            attrs=_body_attrs(model.dimensions))
+
+    def broken(*args, **kwargs):
+        raise InputError("opensim", "the solver failed")
+
+    monkeypatch.setattr(handoff, "inverse_kinematics", broken)
+    assert main(["export", str(tmp_path / "a.h5"), "--opensim"]) == 2
+    assert "the solver failed" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5"]  # no file, no temporary

@@ -76,10 +76,6 @@ def run(args: argparse.Namespace) -> int:
     formats = parse_formats(text)
     if not formats and not args.opensim:
         return 0
-    if args.opensim:
-        from ..io.opensim import require_opensim
-
-        require_opensim()
     paths = _results(args.source)
     if args.out:
         check_output_dir(args.out)
@@ -89,7 +85,13 @@ def run(args: argparse.Namespace) -> int:
         for path, res in zip(paths, results, strict=True):
             check_filter(float(res.attrs.get("frame_rate", 0.0)), args.smooth, args.order,
                          f"{path}: --smooth/--order")
-    for path, res in zip(paths, results, strict=True):
+    bodies = [None] * len(paths)
+    if args.opensim:
+        from ..io.opensim import require_opensim, tracked_body
+
+        bodies = [tracked_body(res, path) for path, res in zip(paths, results, strict=True)]
+        require_opensim()
+    for path, res, body in zip(paths, results, bodies, strict=True):
         if not res.attrs.get("complete"):
             logging.getLogger(__name__).warning(
                 f"{path} is an unfinished run ({len(res)} frames so far)")
@@ -101,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
             from ..io.opensim import export_opensim
 
             done = export_opensim(path, cutoff_hz=args.smooth, order=args.order,
-                                  out_dir=args.out, result=res)
+                                  out_dir=args.out, result=res, body=body)
             for p in done.paths:
                 print(p)
             logging.getLogger(__name__).info(

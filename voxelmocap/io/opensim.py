@@ -137,10 +137,11 @@ def tracked_body(result, source="result") -> tuple[BodyDimensions, str]:
     In order: the ``body_dimensions`` the result records (a fitted or inherited body); the
     subject body file it names (``Mocap_Data/<Subject>_body.toml`` under the recorded data set,
     when it is still there); the average adult scaled to the recorded height. The segment lengths
-    are checked against the landmarks (a tracked pose is a pose of the tracked body, so they
-    agree to rounding); when nothing is recorded, or the lengths disagree by more than
-    :data:`BODY_LENGTH_TOLERANCE_MM` (a body file edited since), the body is measured from the
-    landmarks themselves (:meth:`BodyDimensions.from_landmarks`, medians over the frames).
+    are checked against the landmarks of the frames with a person (a tracked pose is a pose of
+    the tracked body, so they agree to rounding); when nothing is recorded, or the lengths
+    disagree by more than :data:`BODY_LENGTH_TOLERANCE_MM` (a body file edited since), the body
+    is measured from the landmarks themselves (:meth:`BodyDimensions.from_landmarks`, medians
+    over the frames).
 
     Parameters
     ----------
@@ -148,19 +149,21 @@ def tracked_body(result, source="result") -> tuple[BodyDimensions, str]:
     source : str or os.PathLike
         Named in messages.
     """
-    finite = np.isfinite(result.landmarks).all(axis=(1, 2))
-    if not finite.any():
-        raise InputError(source, "no frame has all 15 landmarks: no body to build")
+    usable = np.isfinite(result.landmarks).all(axis=(1, 2)) & np.asarray(result.observed, bool)
+    if not usable.any():
+        raise InputError(source, "no frame with a person and all 15 landmarks: no body to build "
+                                 "and nothing for OpenSim to fit")
+    landmarks = result.landmarks[usable]
     dims, where = _recorded_body(result.attrs, source)
     if dims is not None:
-        measured = _measured_lengths(result.landmarks[finite])
+        measured = _measured_lengths(landmarks)
         worst = max(abs(np.atleast_1d(getattr(dims, k)) - np.asarray(v)).max()
                     for k, v in measured.items())
         if worst <= BODY_LENGTH_TOLERANCE_MM:
             return dims, where
         where = f"{where} differs from the landmarks by up to {worst:.1f} mm"
     logger.warning(f"{source}: {where}; the body is measured from the tracked landmarks")
-    return (BodyDimensions.from_landmarks(result.landmarks[finite], source=str(source)),
+    return (BodyDimensions.from_landmarks(landmarks, source=str(source)),
             "measured from the tracked landmarks")
 
 
@@ -302,7 +305,7 @@ def _table(osim, time, columns, labels, metadata: dict):
 
 
 def export_opensim(result_path, *, cutoff_hz: float | None = None, order: int = 4, out_dir=None,
-                   result=None) -> OpenSimExport:
+                   result=None, body=None) -> OpenSimExport:
     """Write the OpenSim hand-off of one result (module docstring).
 
     Parameters
@@ -315,6 +318,8 @@ def export_opensim(result_path, *, cutoff_hz: float | None = None, order: int = 
         Folder of the files (default: the result's).
     result : TrackResult, optional
         The result, when already read.
+    body : (BodyDimensions, str), optional
+        :func:`tracked_body` of the result, when already found.
 
     Returns
     -------
@@ -336,7 +341,7 @@ def export_opensim(result_path, *, cutoff_hz: float | None = None, order: int = 
     result = read_result(result_path) if result is None else result
     table = landmark_table(result, cutoff_hz=cutoff_hz, order=order, axes="y_up",
                            source=result_path)
-    dims, body = tracked_body(result, result_path)
+    dims, body = tracked_body(result, result_path) if body is None else body
     paths = opensim_paths(result_path, cutoff_hz, out_dir)
     model = build_model(dims, name=f"voxelmocap_{Path(result_path).stem}")
     model.set_credits(f"voxelmocap: the tracked skeleton of {Path(result_path).name}; body: "
