@@ -8,6 +8,7 @@
   knee and hip flexion agree with the ground truth's within the tracking error's reach.
 """
 
+import importlib.util
 import json
 from dataclasses import asdict
 
@@ -121,7 +122,7 @@ def test_without_opensim_the_command_says_how_to_install_it(tmp_path, monkeypatc
 
 # ---------------------------------------------------------------------------- with opensim
 osim_needed = pytest.mark.skipif(
-    __import__("importlib").util.find_spec("opensim") is None,
+    importlib.util.find_spec("opensim") is None,
     reason="the opensim package is not installed (pip install -e \".[opensim]\")")
 
 

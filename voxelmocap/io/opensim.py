@@ -236,6 +236,8 @@ def inverse_kinematics(model, trc_path, *, lumbar_weight: float = 0.0,
     values = np.array([[[table.getRowAtIndex(i)[j][k] for k in range(3)]
                         for j in range(len(names))] for i in range(table.getNumRows())])
     present = np.isfinite(values).all(axis=2)
+    units = table.getTableMetaDataAsString("Units") if table.hasTableMetaDataKey("Units") else "m"
+    to_metres = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}.get(units.strip().lower(), 1.0)
     weights = osim.SetMarkerWeights()
     for name in names:
         weights.cloneAndAppend(osim.MarkerWeight(name, 1.0))
@@ -256,8 +258,8 @@ def inverse_kinematics(model, trc_path, *, lumbar_weight: float = 0.0,
     for out, i in enumerate(rows):
         state.setTime(float(times[i]))
         if previous is None or i != previous + 1:  # a new stretch: start afresh
-            _start_pose(model, state, {n: values[i, j] for j, n in enumerate(names)
-                                       if present[i, j]})
+            _start_pose(model, state, {n: values[i, j] * to_metres
+                                       for j, n in enumerate(names) if present[i, j]})
             solver.assemble(state)
         else:
             solver.track(state)
