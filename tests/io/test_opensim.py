@@ -124,6 +124,11 @@ def test_without_opensim_the_command_says_how_to_install_it(tmp_path, monkeypatc
 osim_needed = pytest.mark.skipif(
     importlib.util.find_spec("opensim") is None,
     reason="the opensim package is not installed (pip install -e \".[opensim]\")")
+if importlib.util.find_spec("opensim") is not None:
+    # the models these tests load back would log to ./opensim.log (the checkout) otherwise
+    from voxelmocap.io.opensim import require_opensim
+
+    require_opensim()
 
 
 def _moving_states(model, n, seed):

@@ -66,12 +66,18 @@ BODY_LENGTH_TOLERANCE_MM = 2.0
 
 
 def require_opensim(source="--opensim"):
-    """Import ``opensim``, or raise :class:`InputError` saying how to install it."""
+    """Import ``opensim``, or raise :class:`InputError` saying how to install it.
+
+    OpenSim's logger writes every message also to ``opensim.log`` in the working directory; that
+    file sink is removed, so an export leaves nothing but its outputs (messages still reach the
+    console).
+    """
     try:
         import opensim
     except ImportError:
         raise InputError(source, "needs the opensim package (pip install -e \".[opensim]\", "
                                  "OpenSim 4.6 from PyPI)") from None
+    opensim.Logger.removeFileSink()
     return opensim
 
 
