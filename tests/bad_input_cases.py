@@ -140,7 +140,7 @@ def _all_zero_workers(data, tmp):
             "--no-progress"]
 
 
-def _result(tmp) -> Path:
+def _result(tmp, observed=None) -> Path:
     """A small finished tracking result (3 frames at 60 Hz) in ``tmp/run/S1/Walking_1.h5``."""
     from voxelmocap.io.results import TrackResult, write_result
 
@@ -153,7 +153,8 @@ def _result(tmp) -> Path:
         part_scores=rng.random((n, 10, 4)), ess=rng.random((n, 2)), betas=rng.random((n, 2)),
         seconds=rng.random(n), log_likelihood=rng.normal(size=n),
         map_state=rng.normal(size=(n, 27)), state_names=[f"s{i}" for i in range(27)],
-        part_names=[f"p{i}" for i in range(10)], attrs={"frame_rate": 60.0, "complete": True}))
+        part_names=[f"p{i}" for i in range(10)], attrs={"frame_rate": 60.0, "complete": True},
+        observed=observed))
     return path
 
 
@@ -175,6 +176,10 @@ def _export(*extra, result=True):
         path = _result(tmp) if result else tmp / "run" / "S1" / "Walking_1.h5"
         return ["export", str(path), *extra]
     return setup
+
+
+def _export_nobody_seen(data, tmp):
+    return ["export", str(_result(tmp, observed=np.zeros(3, bool))), "--opensim"]
 
 
 def _export_not_hdf5(data, tmp):
@@ -406,6 +411,8 @@ CASES: list[Case] = [
     Case("export --smooth 40 (above Nyquist at 60 Hz)", _export("--smooth", "40"),
          ("--smooth", "between 0 and half the frame rate")),
     Case("export --order 3 (odd)", _export("--smooth", "6", "--order", "3"), ("even integer",)),
+    Case("export --opensim of a result without a person in any frame", _export_nobody_seen,
+         ("{tmp}/run/S1/Walking_1.h5", "no frame with a person and all 15 landmarks")),
     Case("evaluate --reference: file not found",
          _evaluate_reference(lambda tmp: tmp / "missing.trc"),
          ("{tmp}/missing.trc", "TRC file not found")),

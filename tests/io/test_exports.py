@@ -175,3 +175,83 @@ def test_track_export_options(walk_dataset, tmp_path, capsys):
     # --resume may change the exports: they are not tracking
     assert main([*base, "--resume", "--export", "trc", "--out", str(tmp_path / "a")]) == 0
     assert (tmp_path / "a" / "S1" / "Walking_1.trc").exists()
+
+
+def _read_c3d_screen(path):
+    c3d = pytest.importorskip("c3d")
+    with open(path, "rb") as handle, warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        reader = c3d.Reader(handle)
+        return reader.get_screen_axis(), np.array([p[:, :3] for _, p, _ in reader.read_frames()])
+
+
+def test_y_up_exports_say_so_and_never_overwrite_the_world_files(tracked, tmp_path):
+    outcome, _ = tracked
+    result = read_result(outcome.result_path)  # (another test edits the fixture's copy)
+    out = tmp_path / "out"
+    assert main(["export", str(outcome.result_path), "--format", "trc,c3d,csv",
+                 "--out", str(out)]) == 0
+    world = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert sorted(world) == ["Walking_1.c3d", "Walking_1.csv", "Walking_1.trc"]
+    assert main(["export", str(outcome.result_path), "--format", "trc,c3d,csv", "--axes", "y_up",
+                 "--smooth", "10", "--out", str(out)]) == 0
+    # the world-frame files are untouched; the Y-up ones carry the frame in their names
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.name in world} == world
+    stem = "Walking_1_butterworth10Hz_yup"
+    assert sorted(p.name for p in out.iterdir() if p.name not in world) == [
+        f"{stem}.c3d", f"{stem}.csv", f"{stem}.trc"]
+    expected = butterworth(result.landmarks, 50.0, cutoff_hz=10.0, order=4)[..., [1, 2, 0]]
+
+    # TRC: its first line names the axes, for our reader and for a person
+    trc = read_trc(out / f"{stem}.trc")
+    assert trc.axes == "y_up" and read_trc(out / "Walking_1.trc").axes == "world"
+    assert "Y up" in (out / f"{stem}.trc").read_text().splitlines()[0]
+    np.testing.assert_allclose(trc.positions, expected, rtol=0, atol=TOL_MM)
+    # C3D: POINT:X_SCREEN / Y_SCREEN
+    screen, points = _read_c3d_screen(out / f"{stem}.c3d")
+    assert screen == ("+X", "+Y") and _read_c3d_screen(out / "Walking_1.c3d")[0] == ("+X", "+Z")
+    np.testing.assert_allclose(points, expected, rtol=0, atol=TOL_MM)
+    # CSV: the position columns name the axes
+    with open(out / f"{stem}.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert list(rows[0])[3:6] == ["x_yup_mm", "y_yup_mm", "z_yup_mm"]
+    xyz = np.array([[float(r[k]) for k in ("x_yup_mm", "y_yup_mm", "z_yup_mm")] for r in rows])
+    np.testing.assert_allclose(xyz.reshape(7, 15, 3), expected, rtol=0, atol=TOL_MM)
+
+
+@pytest.mark.parametrize("fmt", ["trc", "csv"])
+def test_a_y_up_export_is_read_back_in_its_axes(tracked, tmp_path, fmt):
+    """evaluate --reference on our own Y-up export: the file's axes are honoured (error 0), and
+    a mapping that says other axes is refused."""
+    import json
+
+    outcome, _ = tracked
+    assert main(["export", str(outcome.result_path), "--format", fmt, "--axes", "y_up",
+                 "--out", str(tmp_path)]) == 0
+    mapping = tmp_path / "map.toml"
+    mapping.write_text("[landmarks]\n" + "".join(f'{n} = "{n}"\n' for n in LANDMARK_NAMES))
+    report = tmp_path / "r.json"
+    assert main(["evaluate", str(outcome.result_path), "--reference",
+                 str(tmp_path / f"Walking_1_yup.{fmt}"), "--mapping", str(mapping),
+                 "--json", str(report)]) == 0
+    assert json.loads(report.read_text())["mu_mm"] < TOL_MM
+    mapping.write_text(mapping.read_text() + '[reference]\naxes = "world"\n')
+    assert main(["evaluate", str(outcome.result_path), "--reference",
+                 str(tmp_path / f"Walking_1_yup.{fmt}"), "--mapping", str(mapping)]) == 2
+
+
+def test_opensim_reads_a_trc_with_frames_without_a_person(tracked, tmp_path):
+    """OpenSim 4.6 refuses a row whose last marker is empty: missing values are written NaN."""
+    osim = pytest.importorskip("opensim")
+    result = read_result(tracked[0].result_path)
+    result.observed[-2:] = False
+    path = tmp_path / "r.h5"
+    write_result(path, result)
+    assert main(["export", str(path), "--format", "trc", "--axes", "y_up"]) == 0
+    table = osim.TimeSeriesTableVec3(str(tmp_path / "r_yup.trc"))
+    assert table.getNumRows() == 7 and list(table.getColumnLabels()) == list(LANDMARK_NAMES)
+    last = table.getRowAtIndex(6)
+    assert all(np.isnan(last[j][k]) for j in range(15) for k in range(3))
+    first = table.getRowAtIndex(0)
+    np.testing.assert_allclose([[first[j][k] for k in range(3)] for j in range(15)],
+                               result.landmarks[0][:, [1, 2, 0]], rtol=0, atol=TOL_MM)

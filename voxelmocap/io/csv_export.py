@@ -8,9 +8,12 @@ Columns (comma-separated, a header row, UTF-8)::
 ``x_mm … z_mm`` the position (empty when there is no estimate), ``confidence`` in [0, 1] and
 ``spread_mm`` the particle spread (:mod:`voxelmocap.pose.confidence`; empty when unknown),
 ``observed`` 1 when a person was seen in the frame, else 0. Rows are ordered by frame, then by
-landmark. ``pandas.read_csv`` reads it as is; so does :func:`read_points_csv`, which also reads a
+landmark. In OpenSim's Y-up axes (``axes="y_up"``) the position columns are ``x_yup_mm``,
+``y_yup_mm``, ``z_yup_mm`` (:func:`columns`), so a column never holds another axis than its name
+says. ``pandas.read_csv`` reads it as is; so does :func:`read_points_csv`, which also reads a
 reference of named points (``frame``, ``landmark`` or ``marker`` or ``name``, and ``x_mm``,
-``y_mm``, ``z_mm``, or ``x``, ``y``, ``z`` in mm, or ``x_m``, ``y_m``, ``z_m``).
+``y_mm``, ``z_mm``, or ``x``, ``y``, ``z`` in mm, or ``x_m``, ``y_m``, ``z_m``, or the Y-up
+columns).
 
 >>> import numpy as np, tempfile, pathlib
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.csv"
@@ -30,10 +33,19 @@ import numpy as np
 from ..errors import InputError
 from ._atomic import atomic_write_text
 
-__all__ = ["COLUMNS", "read_points_csv", "write_landmarks_csv"]
+__all__ = ["COLUMNS", "columns", "read_points_csv", "write_landmarks_csv"]
 
+#: The columns of the world-frame CSV.
 COLUMNS = ("frame", "time_s", "landmark", "x_mm", "y_mm", "z_mm", "confidence", "spread_mm",
            "observed")
+_POSITION_COLUMNS = {"world": ("x_mm", "y_mm", "z_mm"), "y_up": ("x_yup_mm", "y_yup_mm", "z_yup_mm")}
+
+
+def columns(axes: str = "world") -> tuple[str, ...]:
+    """The header of a CSV whose positions are in ``axes`` ("world" or "y_up")."""
+    if axes not in _POSITION_COLUMNS:
+        raise ValueError(f"axes must be one of {sorted(_POSITION_COLUMNS)}, got {axes!r}")
+    return COLUMNS[:3] + _POSITION_COLUMNS[axes] + COLUMNS[6:]
 
 
 def _cell(v: float) -> str:
@@ -41,7 +53,7 @@ def _cell(v: float) -> str:
 
 
 def write_landmarks_csv(path, positions, names, *, frames, frame_rate: float, confidence=None,
-                        spread=None, observed=None) -> Path:
+                        spread=None, observed=None, axes: str = "world") -> Path:
     """Write the tidy CSV (atomically).
 
     Parameters
@@ -59,6 +71,8 @@ def write_landmarks_csv(path, positions, names, *, frames, frame_rate: float, co
         Empty cells when absent or NaN.
     observed : (F,) array_like of bool, optional
         Default all observed.
+    axes : {"world", "y_up"}
+        The frame of ``positions``, named by the position columns (:func:`columns`).
     """
     x = np.asarray(positions, dtype=float)
     n, m = x.shape[:2]
@@ -68,7 +82,7 @@ def write_landmarks_csv(path, positions, names, *, frames, frame_rate: float, co
     obs = np.ones(n, bool) if observed is None else np.asarray(observed, bool)
     buffer = io.StringIO()
     out = csv.writer(buffer, lineterminator="\n")
-    out.writerow(COLUMNS)
+    out.writerow(columns(axes))
     for i in range(n):
         time = f"{(frames[i] - 1) / float(frame_rate):.6f}"
         for j, name in enumerate(names):
@@ -79,12 +93,16 @@ def write_landmarks_csv(path, positions, names, *, frames, frame_rate: float, co
 
 
 _NAME_COLUMNS = ("landmark", "marker", "name")
-_COORDS = ((("x_mm", "y_mm", "z_mm"), 1.0), (("x", "y", "z"), 1.0),
-           (("x_m", "y_m", "z_m"), 1000.0))
+# (position columns, to mm, the axes they declare: None = not said)
+_COORDS = ((_POSITION_COLUMNS["world"], 1.0, None), (_POSITION_COLUMNS["y_up"], 1.0, "y_up"),
+           (("x", "y", "z"), 1.0, None), (("x_m", "y_m", "z_m"), 1000.0, None))
 
 
 def read_points_csv(path):
     """Named 3-D points from a CSV in the long layout (module docstring), in mm.
+
+    Positions are returned in the file's axes; ``x_yup_mm …`` columns declare OpenSim's Y-up
+    axes (``axes`` "y_up"), the other column names declare nothing (None).
 
     Returns
     -------
@@ -94,6 +112,8 @@ def read_points_csv(path):
         Sorted frame numbers.
     positions : (F, M, 3) ndarray
         mm; NaN where a point has no value in a frame.
+    axes : str or None
+        "y_up" for Y-up columns, else None.
 
     Raises
     ------
@@ -111,10 +131,11 @@ def read_points_csv(path):
         raise InputError(path, "empty CSV file")
     header = [h.strip().lower() for h in rows[0]]
     name_col = next((c for c in _NAME_COLUMNS if c in header), None)
-    coords = next(((cols, s) for cols, s in _COORDS if all(c in header for c in cols)), None)
+    coords = next((c for c in _COORDS if all(k in header for k in c[0])), None)
     if "frame" not in header or name_col is None or coords is None:
         raise InputError(path, "CSV needs columns frame, landmark (or marker, name) and x_mm, "
-                               "y_mm, z_mm (or x, y, z in mm, or x_m, y_m, z_m)")
+                               "y_mm, z_mm (or x, y, z in mm, or x_m, y_m, z_m, or x_yup_mm, "
+                               "y_yup_mm, z_yup_mm)")
     fi, ni = header.index("frame"), header.index(name_col)
     ci = [header.index(c) for c in coords[0]]
     values: dict[tuple[int, str], list[float]] = {}
@@ -143,4 +164,4 @@ def read_points_csv(path):
     positions = np.full((len(frames), len(names), 3), np.nan)
     for (frame, name), xyz in values.items():
         positions[row_of[frame], col_of[name]] = xyz
-    return names, frames, positions * coords[1]
+    return names, frames, positions * coords[1], coords[2]

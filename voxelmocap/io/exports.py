@@ -5,14 +5,17 @@
 
 * ``<Action>_<Trial>.trc`` (:mod:`.trc`), ``.c3d`` (:mod:`.c3d`), ``.csv`` (:mod:`.csv_export`);
 * with a low-pass filter, ``<Action>_<Trial>_butterworth<f>Hz.<ext>``, so a filtered export never
-  passes for the raw estimates.
+  passes for the raw estimates;
+* in OpenSim's Y-up axes (``axes="y_up"``), ``…_yup.<ext>``, so it never overwrites (or passes
+  for) the world-frame files.
 
 Every export carries the result's own frame rate (``frame_rate`` attribute), the landmark names
 (``landmark_names``), millimetres and the calibration's world frame (or OpenSim's Y-up axes with
-``axes="y_up"``). Rows cover every frame from the first to the last tracked one at that rate;
-frames the result does not hold, and frames where no person was observed, have no position.
-Smoothing (:func:`voxelmocap.smoothing.butterworth`) runs on the positions after those gaps are
-cut, so it never bridges them.
+``axes="y_up"``), and says which frame: the TRC on its first line, the C3D in POINT:X_SCREEN /
+Y_SCREEN, the CSV in its column names (``x_yup_mm …``). Rows cover every frame from the first
+to the last tracked one at that rate; frames the result does not hold, and frames where no
+person was observed, have no position. Smoothing (:func:`voxelmocap.smoothing.butterworth`) runs
+on the positions after those gaps are cut, so it never bridges them.
 
 >>> table = landmark_table(read_result("RUN/S1/Walking_1.h5"), cutoff_hz=6.0)  # doctest: +SKIP
 >>> table.positions.shape, table.frame_rate                                    # doctest: +SKIP
@@ -33,7 +36,9 @@ __all__ = ["FORMATS", "LandmarkTable", "export_path", "export_result", "landmark
 
 FORMATS = ("trc", "c3d", "csv")
 #: Pose2Sim's Z-up → Y-up permutation (``Pose2Sim/common.py: zup2yup``): X ← Y, Y ← Z, Z ← X.
-_Y_UP = [1, 2, 0]
+Y_UP = [1, 2, 0]
+#: File-name tag of each frame (the world frame has none).
+AXES_TAGS = {"world": "", "y_up": "_yup"}
 
 
 @dataclass
@@ -108,17 +113,18 @@ def landmark_table(result, *, cutoff_hz: float | None = None, order: int = 4,
         positions = butterworth(positions, rate, cutoff_hz=cutoff_hz, order=order)
         description = f"zero-lag Butterworth low-pass, {cutoff_hz:g} Hz, order {order}"
     if axes == "y_up":
-        positions = positions[..., _Y_UP]
+        positions = positions[..., Y_UP]
     return LandmarkTable(dense, positions, confidence, spread, observed, names, rate,
                          description, axes)
 
 
-def export_path(result_path, fmt: str, cutoff_hz: float | None = None, out_dir=None) -> Path:
+def export_path(result_path, fmt: str, cutoff_hz: float | None = None, out_dir=None,
+                axes: str = "world") -> Path:
     """Where :func:`export_result` writes format ``fmt`` of a result (module docstring)."""
     result_path = Path(result_path)
     folder = result_path.parent if out_dir is None else Path(out_dir)
     tag = "" if cutoff_hz is None else f"_butterworth{cutoff_hz:g}Hz"
-    return folder / f"{result_path.stem}{tag}.{fmt}"
+    return folder / f"{result_path.stem}{tag}{AXES_TAGS[axes]}.{fmt}"
 
 
 def write_export(table: LandmarkTable, fmt: str, path) -> Path:
@@ -127,18 +133,20 @@ def write_export(table: LandmarkTable, fmt: str, path) -> Path:
         from .trc import write_trc
 
         return write_trc(path, table.positions, table.names, frame_rate=table.frame_rate,
-                         frames=table.frames)
+                         frames=table.frames, axes=table.axes)
     if fmt == "csv":
         from .csv_export import write_landmarks_csv
 
         return write_landmarks_csv(path, table.positions, table.names, frames=table.frames,
                                    frame_rate=table.frame_rate, confidence=table.confidence,
-                                   spread=table.spread, observed=table.observed)
+                                   spread=table.spread, observed=table.observed,
+                                   axes=table.axes)
     if fmt == "c3d":
         from .c3d import write_c3d
 
         return write_c3d(path, table.positions, table.names, frame_rate=table.frame_rate,
-                         first_frame=int(table.frames[0]), residuals=table.spread)
+                         first_frame=int(table.frames[0]), residuals=table.spread,
+                         axes=table.axes)
     raise InputError("format", f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
 
 
@@ -183,5 +191,5 @@ def export_result(result_path, formats, *, cutoff_hz: float | None = None, order
     result = read_result(result_path) if result is None else result
     table = landmark_table(result, cutoff_hz=cutoff_hz, order=order, axes=axes,
                            source=result_path)
-    return [write_export(table, fmt, export_path(result_path, fmt, cutoff_hz, out_dir))
+    return [write_export(table, fmt, export_path(result_path, fmt, cutoff_hz, out_dir, axes))
             for fmt in formats]

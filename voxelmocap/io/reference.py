@@ -15,6 +15,9 @@ The **mapping** is a small TOML file saying which reference point each voxelmoca
     axes = "y_up"                # the reference's axes: "world" (default) or OpenSim's Y up
     frame_offset = 0             # reference Frame# = result frame + frame_offset
 
+A file that names its axes (voxelmocap's TRC on its first line, its CSV by the ``x_yup_mm …``
+columns) is read in them; a mapping that says other axes is refused.
+
 Landmarks left out of ``[landmarks]`` are not scored. Frames are matched by number (after the
 offset); a TRC whose DataRate differs from the result's frame rate is refused, since its frame
 numbers then count other instants.
@@ -49,6 +52,7 @@ class ReferencePoints:
     positions: np.ndarray  #: (F, N, 3) mm, NaN where missing
     frame_rate: float | None  #: Hz when the file states it (TRC), else None
     path: Path
+    axes: str | None = None  #: "world" or "y_up" when the file names its axes, else None
 
 
 @dataclass
@@ -56,7 +60,7 @@ class Mapping:
     """A parsed mapping file (module docstring)."""
 
     pairs: dict  #: voxelmocap landmark → tuple of one or two reference names
-    axes: str = "world"
+    axes: str | None = None  #: "world" or "y_up"; None: not said (the file's, else world)
     frame_offset: int = 0
     path: Path | str = "mapping"
 
@@ -75,12 +79,13 @@ def read_reference(path) -> ReferencePoints:
         from .trc import read_trc
 
         trc = read_trc(path)
-        return ReferencePoints(trc.names, trc.frames, trc.positions, trc.frame_rate, path)
+        return ReferencePoints(trc.names, trc.frames, trc.positions, trc.frame_rate, path,
+                               trc.axes)
     if suffix == ".csv":
         from .csv_export import read_points_csv
 
-        names, frames, positions = read_points_csv(path)
-        return ReferencePoints(names, frames, positions, None, path)
+        names, frames, positions, axes = read_points_csv(path)
+        return ReferencePoints(names, frames, positions, None, path, axes)
     raise InputError(path, "expected a reference .trc or .csv file")
 
 
@@ -122,8 +127,8 @@ def parse_mapping(data: dict, source) -> Mapping:
     if extra:
         raise InputError(source, f"unknown key 'reference.{extra[0]}' (known: axes, "
                                  "frame_offset)")
-    axes = ref.get("axes", "world")
-    if axes not in ("world", "y_up"):
+    axes = ref.get("axes")
+    if axes is not None and axes not in ("world", "y_up"):
         raise InputError(source, f"reference.axes must be 'world' or 'y_up', got {axes!r}")
     offset = ref.get("frame_offset", 0)
     if isinstance(offset, bool) or not isinstance(offset, int):
@@ -195,7 +200,11 @@ def aligned(frames, landmarks, frame_rate: float, reference: ReferencePoints,
     rows = np.array([row_of[int(f)] for f in wanted[keep]])
     names = [n for n in LANDMARK_NAMES if n in mapping.pairs]
     pos = reference.positions[rows]
-    if mapping.axes == "y_up":
+    if mapping.axes is not None and reference.axes is not None and mapping.axes != reference.axes:
+        raise InputError(mapping.path, f"reference.axes is {mapping.axes!r} but "
+                                       f"{reference.path.name} says its axes are "
+                                       f"{reference.axes!r}")
+    if (reference.axes or mapping.axes) == "y_up":
         pos = pos[..., _FROM_Y_UP]
     ref = np.stack([pos[:, [index[p] for p in mapping.pairs[n]]].mean(axis=1) for n in names],
                    axis=1)

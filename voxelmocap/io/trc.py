@@ -3,20 +3,26 @@
 The layout is OpenSim's ``.trc`` with Pose2Sim's header conventions (``Pose2Sim/triangulation.py:
 make_trc``): tab-separated, five header lines, then one row per frame::
 
-    PathFileType  4  (X/Y/Z)  <file name>
+    PathFileType  4  (X/Y/Z)  <file name>  Axes: <the frame>
     DataRate  CameraRate  NumFrames  NumMarkers  Units  OrigDataRate  OrigDataStartFrame  OrigNumFrames
     60  60  100  15  mm  60  1  100
     Frame#  Time  thorax  ''  ''  pelvis  ''  '' …
     ''  ''  X1  Y1  Z1  X2  Y2  Z2 …
     1  0.000000  x  y  z …
 
-voxelmocap writes millimetres (``Units`` says so; Pose2Sim writes metres) with six decimals,
-``Frame#`` is the synchronised 1-based frame number and ``Time`` = (Frame# − 1) / DataRate, the
-time in the video. A missing value is an empty field (OpenSim's convention). A TRC has no
-confidence column.
+voxelmocap writes millimetres (``Units`` says so; Pose2Sim writes metres; ``units="m"`` for the
+OpenSim hand-off) with six decimals, ``Frame#`` is the synchronised 1-based frame number and
+``Time`` = (Frame# − 1) / DataRate, the time in the video. A missing value is ``NaN``, as OpenSim
+writes it: OpenSim 4.6's reader counts the fields of a row and refuses one whose last marker is
+empty (trailing tabs), so empty fields would break frames without a person.
+
+The axes are named in a fifth field of the first line (:data:`AXES_NOTES`; OpenSim, Pose2Sim
+and other readers take the first four and ignore it, where an extra key on line 2 makes OpenSim
+refuse the file): ``Axes: Z up …`` for the calibration's world frame, ``Axes: Y up …`` for
+OpenSim's. A TRC has no confidence column.
 
 :func:`read_trc` reads any such file (also OpenSim's own, with a blank line after the header, and
-Pose2Sim's in metres) into millimetres.
+Pose2Sim's in metres) into millimetres, and the axes when the file names them.
 
 >>> import numpy as np, tempfile, pathlib
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.trc"
@@ -35,12 +41,17 @@ import numpy as np
 from ..errors import InputError
 from ._atomic import atomic_write_text
 
-__all__ = ["TrcData", "read_trc", "write_trc"]
+__all__ = ["AXES_NOTES", "TrcData", "read_trc", "write_trc"]
 
 _HEADER_KEYS = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units", "OrigDataRate",
                 "OrigDataStartFrame", "OrigNumFrames")
 #: Length units a TRC may state, in mm.
 UNITS_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
+#: The fifth field of line 1 for each frame voxelmocap writes (see the module docstring).
+AXES_NOTES = {
+    "world": "Axes: Z up (the calibration's world frame, floor at Z = 0)",
+    "y_up": "Axes: Y up (OpenSim; X = world Y, Y = world Z, Z = world X)",
+}
 
 
 @dataclass
@@ -53,9 +64,11 @@ class TrcData:
     positions: np.ndarray  #: (F, M, 3) mm, NaN where a value is missing
     frame_rate: float  #: DataRate (Hz)
     units: str  #: the file's Units (positions are converted to mm)
+    axes: str | None = None  #: "world" or "y_up" when line 1 names them (:data:`AXES_NOTES`)
 
 
-def write_trc(path, positions, names, *, frame_rate: float, frames=None) -> Path:
+def write_trc(path, positions, names, *, frame_rate: float, frames=None, axes: str = "world",
+              units: str = "mm", file_name: str | None = None) -> Path:
     """Write trajectories as a TRC file (atomically).
 
     Parameters
@@ -63,13 +76,19 @@ def write_trc(path, positions, names, *, frame_rate: float, frames=None) -> Path
     path : str or os.PathLike
         The ``.trc`` file.
     positions : (F, M, 3) array_like
-        Marker positions (mm); NaN is written as an empty field.
+        Marker positions (mm); NaN is written as ``NaN``.
     names : sequence of str
         The M marker names (no tab or newline).
     frame_rate : float
         DataRate and CameraRate (Hz).
     frames : (F,) array_like of int, optional
         Frame# of each row (default 1 … F); Time is (Frame# − 1) / frame_rate.
+    axes : {"world", "y_up"}
+        The frame of ``positions``, named on line 1 (:data:`AXES_NOTES`).
+    units : {"mm", "m"}
+        The file's units (``positions`` are converted from mm).
+    file_name : str, optional
+        The name on line 1 (default: ``path``'s; for a file written under a temporary name).
 
     Returns
     -------
@@ -85,20 +104,26 @@ def write_trc(path, positions, names, *, frame_rate: float, frames=None) -> Path
     frames = np.arange(1, len(x) + 1) if frames is None else np.asarray(frames, dtype=np.int64)
     if frames.shape != (len(x),):
         raise ValueError(f"write_trc: {len(x)} frame numbers needed, got {frames.shape}")
+    if axes not in AXES_NOTES:
+        raise ValueError(f"write_trc: axes must be one of {sorted(AXES_NOTES)}, got {axes!r}")
+    if units not in ("mm", "m"):
+        raise ValueError(f"write_trc: units must be 'mm' or 'm', got {units!r}")
+    x = x / UNITS_MM[units]
+    digits = 6 if units == "mm" else 9  # µm either way
     n, m = x.shape[:2]
     rate = f"{float(frame_rate):g}"
     start = int(frames[0]) if n else 1
     lines = [
-        f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+        f"PathFileType\t4\t(X/Y/Z)\t{file_name or path.name}\t{AXES_NOTES[axes]}",
         "\t".join(_HEADER_KEYS),
-        "\t".join([rate, rate, str(n), str(m), "mm", rate, str(start), str(n)]),
+        "\t".join([rate, rate, str(n), str(m), units, rate, str(start), str(n)]),
         "Frame#\tTime\t" + "\t\t\t".join(names) + "\t\t",
         "\t\t" + "\t".join(f"X{i + 1}\tY{i + 1}\tZ{i + 1}" for i in range(m)),
     ]
     time = (frames - 1) / float(frame_rate)
     flat = x.reshape(n, 3 * m)
     for i in range(n):
-        values = "\t".join("" if np.isnan(v) else f"{v:.6f}" for v in flat[i])
+        values = "\t".join("NaN" if np.isnan(v) else f"{v:.{digits}f}" for v in flat[i])
         lines.append(f"{int(frames[i])}\t{time[i]:.6f}\t{values}")
     atomic_write_text(path, "\n".join(lines) + "\n")
     return path
@@ -167,11 +192,13 @@ def read_trc(path) -> TrcData:
         frames.append(_number(path, cells[0], f"line {number}'s Frame#", int))
         times.append(_number(path, cells[1], f"line {number}'s Time"))
         coords = cells[2:2 + 3 * m] + [""] * max(0, 3 * m - (len(cells) - 2))
-        rows.append([_number(path, c, f"a value on line {number}") if c.strip() else np.nan
-                     for c in coords])
+        rows.append([_number(path, c, f"a value on line {number}")
+                     if c.strip() and c.strip().lower() != "nan" else np.nan for c in coords])
     if not rows:
         raise InputError(path, "TRC file has no data rows")
     scale = UNITS_MM[units.lower()]
     positions = np.asarray(rows, dtype=float).reshape(len(rows), m, 3) * scale
+    first = [c.strip() for c in lines[0].split("\t")]
+    axes = next((k for k, note in AXES_NOTES.items() if len(first) > 4 and first[4] == note), None)
     return TrcData(names, np.asarray(frames, dtype=np.int64), np.asarray(times, dtype=float),
-                   positions, float(rate), units)
+                   positions, float(rate), units, axes)
