@@ -323,28 +323,32 @@ def _static_loop(data, tmp):
     return _groundtruth_with(data, tmp, static=loop)
 
 
-def _mat_bomb(data, tmp):
-    """A trial ``.mat`` whose compressed ``Markers`` declares 1.46 GB (zeros compress well)."""
+def write_mat_bomb(path, declared: int = 1_460_000_000) -> Path:
+    """A MAT v5 file whose compressed ``Markers`` (zeros) declares ``declared`` bytes."""
     import struct
     import zlib
 
-    def bomb(path):
-        n = 1_460_000_000 // 8 // 3
-        name = b"Markers"
-        body = struct.pack("<IIII", 6, 8, 6, 0)  # array flags: double
-        body += struct.pack("<II", 5, 12) + struct.pack("<iii", n, 1, 3) + b"\0" * 4
-        body += struct.pack("<II", 1, len(name)) + name + b"\0" * (8 - len(name) % 8)
-        body += struct.pack("<II", 9, n * 3 * 8)
-        compressor = zlib.compressobj(9)
-        stream = compressor.compress(struct.pack("<II", 14, len(body) + n * 24) + body)
-        zeros = b"\0" * (1 << 20)
-        for _ in range(n * 24 // len(zeros)):
-            stream += compressor.compress(zeros)
-        stream += compressor.compress(b"\0" * (n * 24 % len(zeros))) + compressor.flush()
-        header = b"MATLAB 5.0 MAT-file".ljust(116, b" ") + b"\0" * 8 + struct.pack("<H", 0x0100) \
-            + b"IM"
-        path.write_bytes(header + struct.pack("<II", 15, len(stream)) + stream)
-    return _groundtruth_with(data, tmp, trial=bomb)
+    n = declared // 8 // 3
+    name = b"Markers"
+    body = struct.pack("<IIII", 6, 8, 6, 0)  # array flags: double
+    body += struct.pack("<II", 5, 12) + struct.pack("<iii", n, 1, 3) + b"\0" * 4
+    body += struct.pack("<II", 1, len(name)) + name + b"\0" * (8 - len(name) % 8)
+    body += struct.pack("<II", 9, n * 3 * 8)
+    compressor = zlib.compressobj(9)
+    stream = compressor.compress(struct.pack("<II", 14, len(body) + n * 24) + body)
+    zeros = b"\0" * (1 << 20)
+    for _ in range(n * 24 // len(zeros)):
+        stream += compressor.compress(zeros)
+    stream += compressor.compress(b"\0" * (n * 24 % len(zeros))) + compressor.flush()
+    header = b"MATLAB 5.0 MAT-file".ljust(116, b" ") + b"\0" * 8 + struct.pack("<H", 0x0100) \
+        + b"IM"
+    path.write_bytes(header + struct.pack("<II", 15, len(stream)) + stream)
+    return path
+
+
+def _mat_bomb(data, tmp):
+    """A trial ``.mat`` whose compressed ``Markers`` declares 1.46 GB (zeros compress well)."""
+    return _groundtruth_with(data, tmp, trial=write_mat_bomb)
 
 
 def _export_attr(**attrs):
@@ -470,7 +474,7 @@ CASES: list[Case] = [
     Case("image folder: frame 2 resized", _frame2("resized"),
          ("{tmp}/proj/videos/C2/frame_000002.png", "320x240")),
     Case("image folder: frame 2 is a folder", _frame2("folder"),
-         ("{tmp}/proj/videos/C2", "counter 2")),
+         ("{tmp}/proj/videos/C2/frame_000002.png", "not a regular file")),
     Case("image folder: frame 2 declares 60000x60000 pixels", _frame2("huge"),
          ("{tmp}/proj/videos/C2/frame_000002.png", "60000x60000")),
     Case("image folder: frame 2 corrupt (track)", _frame2("corrupt", command="track"),

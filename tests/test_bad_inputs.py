@@ -12,7 +12,7 @@ from voxelmocap.cli import main
 
 
 def _snapshot(*folders):
-    return {p: p.stat().st_size for f in folders for p in f.rglob("*")}
+    return {p: p.lstat().st_size for f in folders for p in f.rglob("*")}
 
 
 CASES = INPUT_CASES + PROJECT_CASES

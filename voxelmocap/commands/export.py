@@ -57,17 +57,22 @@ def run(args: argparse.Namespace) -> int:
     from ..io.results import read_result
     from ..smoothing import check_filter
 
+    from ..io.exports import landmark_table
+
     formats = parse_formats(args.format)
-    if not formats:
-        return 0
+    if args.smooth is not None:  # the order alone first: the cut-off depends on each result
+        check_filter(1e5, 1.0, args.order, "--order")
     paths = _results(args.source)
     if args.out:
         check_output_dir(args.out)
+    if not formats:
+        return 0
     # Everything is read and checked before the first file is written.
     results = [read_result(p) for p in paths]
-    if args.smooth is not None:
-        for path, res in zip(paths, results, strict=True):
-            check_filter(float(res.attrs.get("frame_rate", 0.0)), args.smooth, args.order,
+    for path, res in zip(paths, results, strict=True):
+        landmark_table(res, source=path)  # the result's own numbers, before any filter
+        if args.smooth is not None:
+            check_filter(float(res.attrs["frame_rate"]), args.smooth, args.order,
                          f"{path}: --smooth/--order")
     for path, res in zip(paths, results, strict=True):
         if not res.attrs.get("complete"):

@@ -148,6 +148,8 @@ def check_mat_sizes(path) -> None:
             _check_v5(path, data, "<" if data[126:128] == b"IM" else ">")
         else:
             _check_v4(path, data)
+    except InputError:
+        raise
     except (_Stop, struct.error, IndexError, ValueError, OverflowError, RecursionError):
         return  # not a layout walked here: SciPy's reader refuses it
 

@@ -118,13 +118,19 @@ def check_rig(cameras, source, *, intrinsics_source=None, geometry: bool = True)
                                      "(its position is out of range): check its translation and "
                                      "the units")
     if len(cameras) > 1:
-        for i, cam in enumerate(cameras):
-            others = np.delete(centres, i, axis=0)
-            d = float(np.median(np.linalg.norm(others - centres[i], axis=1)))
-            if d > MAX_DISTANCE_MM:
-                raise InputError(source, f"camera {cam.name} is {d / 1000:.4g} m from the other "
-                                         f"cameras (at most {MAX_DISTANCE_MM / 1000:g} m): check "
-                                         "its translation and the units")
+        # The odd one out is the camera farthest from the rig's median position (robust to it);
+        # of two cameras, the one farther from the world's origin.
+        middle = np.median(centres, axis=0)
+        far = np.linalg.norm(centres - middle, axis=1)
+        i = int(np.argmax(far))
+        if len(cameras) == 2:
+            i = int(np.argmax(np.linalg.norm(centres, axis=1)))
+        others = np.delete(centres, i, axis=0)
+        d = float(np.median(np.linalg.norm(others - centres[i], axis=1)))
+        if d > MAX_DISTANCE_MM:
+            raise InputError(source, f"camera {cameras[i].name} is {d / 1000:.4g} m from the "
+                                     f"other cameras (at most {MAX_DISTANCE_MM / 1000:g} m): "
+                                     "check its translation and the units")
     scene = scene_point(cameras) if len(cameras) > 1 else np.zeros(3)
     if scene is None:
         return

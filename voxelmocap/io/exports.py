@@ -32,6 +32,12 @@ __all__ = ["FORMATS", "LandmarkTable", "export_path", "export_result", "landmark
            "parse_formats", "write_export"]
 
 FORMATS = ("trc", "c3d", "csv")
+#: Largest frame number exported (a 1 kHz recording of 24 days).
+MAX_FRAME = 2**31 - 1
+#: Most rows an export may span (frames from the first to the last tracked one).
+MAX_EXPORT_ROWS = 1_000_000
+#: Largest frame rate accepted (Hz).
+MAX_FRAME_RATE = 1e5
 #: Pose2Sim's Z-up → Y-up permutation (``Pose2Sim/common.py: zup2yup``): X ← Y, Y ← Z, Z ← X.
 _Y_UP = [1, 2, 0]
 
@@ -84,12 +90,28 @@ def landmark_table(result, *, cutoff_hz: float | None = None, order: int = 4,
     frames = np.asarray(result.frames, dtype=np.int64)
     if len(frames) == 0:
         raise InputError(source, "the result holds no frame")
+    if frames[0] < 1 or frames[-1] > MAX_FRAME:
+        raise InputError(source, f"frame numbers {frames[0]}…{frames[-1]} are outside "
+                                 f"1…{MAX_FRAME}")
     if np.any(np.diff(frames) <= 0):
         raise InputError(source, "frame numbers are not increasing")
-    rate = float(result.attrs.get("frame_rate", np.nan))
-    if not (np.isfinite(rate) and rate > 0):
-        raise InputError(source, "the result has no valid frame_rate attribute")
+    # One row per frame from the first to the last: a gap is rows of NaN, so the span is what
+    # is allocated.
+    span = int(frames[-1] - frames[0]) + 1
+    if span > max(MAX_EXPORT_ROWS, 2 * len(frames)):
+        raise InputError(source, f"frames {frames[0]}…{frames[-1]} span {span} rows for "
+                                 f"{len(frames)} tracked frames: damaged frame numbers")
+    rate = result.attrs.get("frame_rate", np.nan)
+    if isinstance(rate, (bool, str, bytes)) or not isinstance(rate, (int, float, np.number)) \
+            or not (np.isfinite(rate) and 0 < rate <= MAX_FRAME_RATE):
+        raise InputError(source, f"the result's frame_rate attribute {rate!r:.40} is not a "
+                                 f"number of Hz in (0, {MAX_FRAME_RATE:g}]")
+    rate = float(rate)
     names = list(result.attrs.get("landmark_names") or LANDMARK_NAMES)
+    landmarks = np.asarray(result.landmarks)
+    if landmarks.ndim != 3 or landmarks.shape[1] != len(names) or landmarks.shape[2] != 3:
+        raise InputError(source, f"{len(names)} landmark names for landmarks of shape "
+                                 f"{landmarks.shape}: damaged result")
     dense = np.arange(frames[0], frames[-1] + 1)
     rows = frames - frames[0]
     n, m = len(dense), len(names)
@@ -148,6 +170,8 @@ def parse_formats(text, source="--format") -> tuple[str, ...]:
     formats = tuple(dict.fromkeys(f.strip().lower() for f in items if f.strip()))
     if formats == ("none",):
         return ()
+    if not formats:
+        raise InputError(source, f"no format given (known: {', '.join(FORMATS)}, or none)")
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise InputError(source, f"unknown format {unknown[0]!r} (known: {', '.join(FORMATS)}, "
