@@ -323,8 +323,9 @@ def _static_loop(data, tmp):
     return _groundtruth_with(data, tmp, static=loop)
 
 
-def write_mat_bomb(path, declared: int = 1_460_000_000) -> Path:
-    """A MAT v5 file whose compressed ``Markers`` (zeros) declares ``declared`` bytes."""
+def write_mat_bomb(path, declared: int = 1_460_000_000, *, whole: bool = True) -> Path:
+    """A MAT v5 file whose compressed ``Markers`` (zeros) declares ``declared`` bytes (and holds
+    them, unless not ``whole``: then 1 MB of them, quicker to write)."""
     import struct
     import zlib
 
@@ -337,7 +338,7 @@ def write_mat_bomb(path, declared: int = 1_460_000_000) -> Path:
     compressor = zlib.compressobj(9)
     stream = compressor.compress(struct.pack("<II", 14, len(body) + n * 24) + body)
     zeros = b"\0" * (1 << 20)
-    for _ in range(n * 24 // len(zeros)):
+    for _ in range(n * 24 // len(zeros) if whole else min(1, n * 24 // len(zeros))):
         stream += compressor.compress(zeros)
     stream += compressor.compress(b"\0" * (n * 24 % len(zeros))) + compressor.flush()
     header = b"MATLAB 5.0 MAT-file".ljust(116, b" ") + b"\0" * 8 + struct.pack("<H", 0x0100) \

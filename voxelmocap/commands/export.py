@@ -53,11 +53,9 @@ def _results(source):
 
 def run(args: argparse.Namespace) -> int:
     from ..io._outputs import check_output_dir
-    from ..io.exports import export_result, parse_formats
+    from ..io.exports import export_result, landmark_table, parse_formats
     from ..io.results import read_result
     from ..smoothing import check_filter
-
-    from ..io.exports import landmark_table
 
     formats = parse_formats(args.format)
     if args.smooth is not None:  # the order alone first: the cut-off depends on each result

@@ -84,10 +84,10 @@ def _problem(parsed) -> str | None:
                     "GROUPREF_UNI_IGNORE"):
             return "back-references are not accepted"
         if op in _REPEATS:
-            low, high, body = av
+            _, high, body = av
             if high == _MAXREPEAT:
                 unbounded += 1
-            if high > 1 and any(o in _REPEATS and a[1] > 1 or str(o) == "BRANCH"
+            if high > 1 and any((o in _REPEATS and a[1] > 1) or str(o) == "BRANCH"
                                 for o, a in _walk(body)):
                 return ("a repeated group holds another repeat or an alternation (nested "
                         "quantifiers backtrack exponentially, e.g. '(a+)+')")

@@ -28,8 +28,8 @@ import numpy as np
 from ..camera import CAPTURE_CENTRE, Camera, Rig, sort_camera_names
 from ..errors import InputError
 from ._atomic import atomic_write_text
-from .calibration_checks import check_rig
 from ._files import is_float, read_text_file
+from .calibration_checks import check_rig
 from .toml import read_toml, write_toml
 
 __all__ = [

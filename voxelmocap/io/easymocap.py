@@ -23,8 +23,8 @@ import numpy as np
 
 from ..camera import Camera, Rig
 from ..errors import InputError
-from .calibration_checks import check_intrinsics
 from ._atomic import atomic_write_text
+from .calibration_checks import check_intrinsics
 
 __all__ = ["read_easymocap", "write_easymocap"]
 

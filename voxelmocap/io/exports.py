@@ -101,12 +101,15 @@ def landmark_table(result, *, cutoff_hz: float | None = None, order: int = 4,
     if span > max(MAX_EXPORT_ROWS, 2 * len(frames)):
         raise InputError(source, f"frames {frames[0]}…{frames[-1]} span {span} rows for "
                                  f"{len(frames)} tracked frames: damaged frame numbers")
-    rate = result.attrs.get("frame_rate", np.nan)
-    if isinstance(rate, (bool, str, bytes)) or not isinstance(rate, (int, float, np.number)) \
-            or not (np.isfinite(rate) and 0 < rate <= MAX_FRAME_RATE):
-        raise InputError(source, f"the result's frame_rate attribute {rate!r:.40} is not a "
+    given = result.attrs.get("frame_rate", np.nan)
+    try:
+        rate = (float(given) if isinstance(given, (int, float, np.number))
+                and not isinstance(given, bool) else np.nan)
+    except OverflowError:
+        rate = np.nan
+    if not (np.isfinite(rate) and 0 < rate <= MAX_FRAME_RATE):
+        raise InputError(source, f"the result's frame_rate attribute {given!r:.40} is not a "
                                  f"number of Hz in (0, {MAX_FRAME_RATE:g}]")
-    rate = float(rate)
     names = list(result.attrs.get("landmark_names") or LANDMARK_NAMES)
     landmarks = np.asarray(result.landmarks)
     if landmarks.ndim != 3 or landmarks.shape[1] != len(names) or landmarks.shape[2] != 3:

@@ -41,8 +41,8 @@ import numpy as np
 
 from ..camera import Rig
 from ..errors import InputError
-from .calibration_files import calibration_format, find_calibration, read_calibration_file
 from ._regex import bounded_search, user_regex
+from .calibration_files import calibration_format, find_calibration, read_calibration_file
 from .project_checks import match_cameras, reconcile_size, world_frame_notes
 from .synchronised import SynchronisedVideos
 from .video import VideoStream, find_videos, natural_key
