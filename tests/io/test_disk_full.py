@@ -190,3 +190,33 @@ def test_atomic_writes_turn_enospc_into_one_line(tmp_path, monkeypatch):
         atomic_write_text(tmp_path / "a.trc", "x")
     assert str(info.value) == f"{tmp_path / 'a.trc'}: cannot write (No space left on device)"
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["export", "evaluate --json", "import"])
+def test_commands_on_a_full_disk_answer_one_line(command, tmp_path, capsys):
+    """export, evaluate --json and import writing to a full disk: exit 2, one line naming the
+    file, and nothing of theirs left on the disk."""
+    from bad_input_cases import _mapping, _project, _reference, _result
+    from humaneva_fixture import make_tiny_dataset
+
+    result = _result(tmp_path)
+    with small_disk(tmp_path / "disk", "1m") as disk:
+        if command == "export":
+            argv = ["export", str(result), "--out", str(disk / "out")]
+            (disk / "out").mkdir()
+        elif command == "evaluate --json":
+            argv = ["evaluate", str(result), "--reference", str(_reference(tmp_path)),
+                    "--mapping", str(_mapping(tmp_path)), "--json", str(disk / "r.json")]
+        else:
+            data = make_tiny_dataset(tmp_path / "data", n_frames=3)
+            argv = ["import", str(_project(data, tmp_path)), "--out", str(disk / "he"),
+                    "--no-progress"]
+        filler = fill(disk)
+        before = sorted(disk.rglob("*"))
+        capsys.readouterr()
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+        assert str(disk) in err[0] and ("space" in err[0] or "full" in err[0]), err[0]
+        assert sorted(disk.rglob("*")) == before  # nothing new, not even a folder
+        os.unlink(filler)

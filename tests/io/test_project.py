@@ -6,6 +6,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from humaneva_fixture import make_tiny_dataset
 from project_fixture import make_project, qca_rig, renamed, write_frames
 
 from voxelmocap.errors import InputError
@@ -329,3 +330,33 @@ def test_info_on_a_project(tmp_path, capsys):
     assert "note: cam02: the video is 640x472, the calibration 640x480: taken as the calibrated " \
            "image with 8 row(s) cropped at the bottom (principal point kept)" in out
     assert out.rstrip().endswith("all files read are valid")
+
+
+# ---------------------------------------------------------------------- issue 36 / issue 35
+def test_trial_names_never_leave_the_run_folder(tmp_path, monkeypatch):
+    """``track .`` and ``track PROJ/videos/..`` name the trial after the project's real folder
+    (not "" or ".."), so RUN/<trial>/<trial>.h5 stays inside RUN."""
+    from bad_input_cases import _project
+
+    data = make_tiny_dataset(tmp_path / "data", n_frames=2)
+    root = _project(data, tmp_path)
+    assert list(Project(root / "videos" / "..").trials) == ["proj"]
+    monkeypatch.chdir(root)
+    project = Project(".")
+    assert list(project.trials) == ["proj"] and project.root == root
+
+
+def test_pose2sim_calibration_in_mm_is_read_as_mm(tmp_path):
+    """Issue 35: a Pose2Sim layout holding a calibration TOML written in mm (FreeMoCap's) would
+    put its cameras kilometres apart read as metres: the geometry says mm, a note says so, and
+    the rig is the one the mm file describes."""
+    from bad_input_cases import _project
+
+    data = make_tiny_dataset(tmp_path / "data", n_frames=2)
+    root = _project(data, tmp_path)
+    truth = read_rig(data / "S1" / "Calibration_Data")
+    write_calibration_toml(truth, root / "calibration" / "Calib.toml")  # mm
+    seq = Project(root).sequence()
+    for cam in truth:
+        np.testing.assert_allclose(seq.rig[cam.name].center, cam.center, atol=1e-6)
+    assert any("taken as mm although Pose2Sim writes metres" in n for n in seq.notes)
