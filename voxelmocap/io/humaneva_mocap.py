@@ -198,6 +198,9 @@ def read_mocap_mat(path, *, what: str = "mocap trial", need_labels: bool = True)
     if not path.is_file():
         if path.is_dir():
             raise InputError(path, f"is a folder, not a {what}")
+        if path.is_symlink():
+            raise InputError(path, f"is a symbolic link that leads nowhere (broken, or a loop), "
+                                   f"not a {what}")
         raise InputError(path, f"{what} not found" if not path.exists() else f"is not a {what}")
     check_mat_sizes(path)  # what it declares must fit in it before SciPy allocates it
     try:

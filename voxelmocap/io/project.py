@@ -190,7 +190,7 @@ def _output_name(name: str, where, what: str) -> str:
 
     if (not name.strip(".") or any(c in name for c in "/\\\0") or name.startswith(".")
             or printable(name) != name):
-        raise InputError(where, f"{what} {printable(name)!r} cannot name the output files "
+        raise InputError(where, f"{what} '{printable(name)}' cannot name the output files "
                                 "(RUN/<trial>/<trial>.h5): rename it")
     return name
 

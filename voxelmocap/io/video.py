@@ -39,7 +39,7 @@ def _utf8_name(path: Path) -> Path:
     from ..errors import printable
 
     if printable(path.name) != path.name:
-        raise InputError(path.parent, f"file name {printable(path.name)!r} is not valid UTF-8: "
+        raise InputError(path.parent, f"file name '{printable(path.name)}' is not valid UTF-8: "
                                       "rename it")
     return path
 
