@@ -217,6 +217,28 @@ def _png_header(w: int, h: int) -> bytes:
             + struct.pack(">I", zlib.crc32(chunk)) + b"\0" * 64)
 
 
+def _humaneva_truncated_frame(data, tmp):
+    """The HumanEva layout's C2 as a numbered PNG folder whose third file is cut short."""
+    from bad_input_cases import _track
+
+    video = data / "S1" / "Image_Data" / "Walking_1_(C2).avi"
+    folder = video.with_suffix("")
+    folder.mkdir()
+    cap = cv2.VideoCapture(str(video))
+    k = 0
+    while True:
+        ok, image = cap.read()
+        if not ok:
+            break
+        k += 1
+        cv2.imwrite(str(folder / f"frame_{k:05d}.png"), image)
+    cap.release()
+    video.unlink()
+    third = folder / "frame_00003.png"
+    third.write_bytes(third.read_bytes()[:-100])
+    return _track(data, tmp)
+
+
 def _far_frame_number(data, tmp):
     root = _image_folders(data, tmp, frames=5)
     shutil.copy(root / "videos" / "C1" / "frame_000005.png",
@@ -480,6 +502,8 @@ CASES: list[Case] = [
          ("{tmp}/proj/videos/C2/frame_000002.png", "60000x60000")),
     Case("image folder: frame 2 corrupt (track)", _frame2("corrupt", command="track"),
          ("{tmp}/proj/videos/C2/frame_000002.png",)),
+    Case("HumanEva image folder: frame 3 truncated (track)", _humaneva_truncated_frame,
+         ("{data}/S1/Image_Data/Walking_1_(C2)/frame_00003.png", "truncated PNG")),
     Case("image folder: frame_999999999.png beside frames 1-5", _far_frame_number,
          ("{tmp}/proj/videos/C1", "999999999")),
     Case("anipose videos named _..-camA.avi (trial name '..')", _anipose_dots,
