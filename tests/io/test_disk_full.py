@@ -220,3 +220,38 @@ def test_commands_on_a_full_disk_answer_one_line(command, tmp_path, capsys):
         assert str(disk) in err[0] and ("space" in err[0] or "full" in err[0]), err[0]
         assert sorted(disk.rglob("*")) == before  # nothing new, not even a folder
         os.unlink(filler)
+
+
+_DUMP_CHILD = textwrap.dedent("""
+    import sys
+    import numpy as np
+    from voxelmocap.errors import InputError
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.io.voxels import VoxelDumpWriter
+
+    grid = VoxelGrid(origin=(0.0, 0.0, 0.0), voxel_size=10.0, shape=(64, 64, 64))
+    rng = np.random.default_rng(0)
+    n = 0
+    try:
+        with VoxelDumpWriter(sys.argv[1], grid) as out:
+            while True:  # incompressible volumes, until the disk is full
+                out.write(n + 1, rng.random(grid.shape) > 0.5, smoothed=rng.random(grid.shape))
+                n += 1
+    except InputError as exc:
+        print("REFUSED", n, exc)
+""")
+
+
+def test_voxel_dump_on_a_full_disk(tmp_path):
+    """``dump``'s HDF5 writer meeting a full disk: one InputError, no crash, nothing left."""
+    script = tmp_path / "child.py"
+    script.write_text(_DUMP_CHILD)
+    with small_disk(tmp_path / "disk", "2m") as disk:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+        done = subprocess.run([sys.executable, str(script), str(disk / "v.h5")],
+                              capture_output=True, text=True, env=env, check=False)
+        assert done.returncode == 0, (done.returncode, done.stderr[-2000:])
+        assert done.stderr == "", done.stderr[-2000:]
+        assert done.stdout.startswith("REFUSED") and "No space left on device" in done.stdout
+        assert str(disk / "v.h5") in done.stdout
+        assert list(disk.iterdir()) == []

@@ -67,6 +67,8 @@ import numpy as np
 
 from ..errors import InputError
 from ._atomic import write_reason
+from ._hdf5 import WRITE_ERRORS as _WRITE_ERRORS
+from ._hdf5 import abandon as _abandon
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "PER_FRAME", "ResultWriter", "TrackResult",
            "check_not_being_written", "read_result", "write_result"]
@@ -524,8 +526,6 @@ class ResultWriter:
             self._new_dirs = []
 
 
-#: What an HDF5 write that did not reach the disk raises (h5py: OSError or RuntimeError).
-_WRITE_ERRORS = (OSError, RuntimeError)
 #: Bytes a new result file needs besides its rows: header, attributes, dataset headers, first
 #: chunks (the file of a 1-frame run is about 100 kB; scripts/bench_results.py).
 _CREATE_BYTES = 1 << 20
@@ -541,30 +541,6 @@ def _free_bytes(folder: Path) -> int | None:
     except OSError:
         return None
     return st.f_bavail * st.f_frsize
-
-
-def _abandon(f: h5py.File | None) -> None:
-    """Close an HDF5 file whose write failed without HDF5 writing to it again.
-
-    After a failed write, HDF5 2.0's next flush of the file crashes the process (a segmentation
-    fault, found with a full disk). Its descriptor is pointed at ``/dev/null`` first, so the
-    flushes of closing go nowhere and the file on disk stays as the last successful write left
-    it; then every handle is closed.
-    """
-    if f is None:
-        return
-    try:
-        fd = f.id.get_vfd_handle()
-    except Exception:  # no descriptor to redirect: closing is all there is
-        fd = None
-    if fd is not None:
-        null = os.open(os.devnull, os.O_RDWR)
-        try:
-            os.dup2(null, fd)
-        finally:
-            os.close(null)
-    with contextlib.suppress(Exception):
-        f.close()
 
 
 def _dataset_row_bytes(d: h5py.Dataset) -> int:
