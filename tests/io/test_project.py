@@ -179,10 +179,15 @@ def test_several_trials(tmp_path):
 def test_calibration_option_and_units(tmp_path):
     root = _pose2sim(tmp_path / "p")
     other = tmp_path / "calibration.toml"
-    write_calibration_toml(renamed(_rig(), {"C1": "cam01", "C2": "cam02", "C3": "cam03"}), other)
+    write_calibration_toml(renamed(_rig(), {"C1": "cam01", "C2": "cam02", "C3": "cam03"}), other,
+                           translation_scale=1000.0)
     # a Pose2Sim project's TOML is in metres; one given by --calibration too
     seq = open_sequence(root, calibration=other)
-    assert np.abs(seq.rig["cam01"].T - _rig()["C1"].T * 1000).max() < 1e-6
+    assert np.abs(seq.rig["cam01"].T - _rig()["C1"].T).max() < 1e-6
+    # written in mm, read as metres its cameras would stand kilometres apart: mm (issue 35)
+    write_calibration_toml(renamed(_rig(), {"C1": "cam01", "C2": "cam02", "C3": "cam03"}), other)
+    seq = open_sequence(root, calibration=other)
+    assert np.abs(seq.rig["cam01"].T - _rig()["C1"].T).max() < 1e-6
     with pytest.raises(InputError, match="calibration file not found"):
         open_sequence(root, calibration=tmp_path / "calib.json")
     (tmp_path / "calib.json").write_text("{}")
