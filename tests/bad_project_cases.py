@@ -357,7 +357,7 @@ def write_mat_bomb(path, declared: int = 1_460_000_000, *, whole: bool = True) -
     body += struct.pack("<II", 5, 12) + struct.pack("<iii", n, 1, 3) + b"\0" * 4
     body += struct.pack("<II", 1, len(name)) + name + b"\0" * (8 - len(name) % 8)
     body += struct.pack("<II", 9, n * 3 * 8)
-    compressor = zlib.compressobj(9)
+    compressor = zlib.compressobj(1)  # fastest: the point is the size declared
     stream = compressor.compress(struct.pack("<II", 14, len(body) + n * 24) + body)
     zeros = b"\0" * (1 << 20)
     for _ in range(n * 24 // len(zeros) if whole else min(1, n * 24 // len(zeros))):
