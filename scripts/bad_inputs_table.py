@@ -1,8 +1,8 @@
 """Print the Markdown table of ``docs/bad_inputs.md``: every bad-input case and its message.
 
-Runs each case of ``tests/bad_input_cases.py`` (the same cases ``tests/test_bad_inputs.py``
-checks) on a fresh tiny data set in a temporary folder and prints the command's one-line
-message, with the temporary paths shortened to ``DATA/`` and ``TMP/``.
+Runs each case of ``tests/bad_input_cases.py`` and ``tests/bad_project_cases.py`` (the same
+cases ``tests/test_bad_inputs.py`` checks) on a fresh tiny data set in a temporary folder and
+prints the command's one-line message, with the temporary paths shortened to ``DATA/`` and ``TMP/``.
 
 Usage: ``python scripts/bad_inputs_table.py > docs/bad_inputs.md``
 
@@ -20,7 +20,8 @@ from pathlib import Path
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 sys.path.insert(0, str(TESTS))
 
-from bad_input_cases import CASES  # noqa: E402
+from bad_input_cases import CASES as INPUT_CASES  # noqa: E402
+from bad_project_cases import CASES as PROJECT_CASES  # noqa: E402
 from humaneva_fixture import make_tiny_dataset  # noqa: E402
 
 from voxelmocap.cli import main  # noqa: E402
@@ -47,13 +48,14 @@ def run_case(case) -> tuple[int, str]:
 
 def main_table() -> None:
     print("# Bad input and the one line it gets\n")
-    print("Every row is a test (`tests/test_bad_inputs.py`, cases in `tests/bad_input_cases.py`):")
+    print("Every row is a test (`tests/test_bad_inputs.py`, cases in `tests/bad_input_cases.py`")
+    print("and, for the readers issue 36 hardened, `tests/bad_project_cases.py`):")
     print("exit code 2, one line on stderr naming the file or option and the problem, no traceback,")
     print("and no file created or changed. Regenerate with")
     print("`python scripts/bad_inputs_table.py > docs/bad_inputs.md`.\n")
     print("| bad input | exit | message |")
     print("|---|---|---|")
-    for case in CASES:
+    for case in INPUT_CASES + PROJECT_CASES:
         code, text = run_case(case)
         print(f"| {case.name} | {code} | `{text.replace('|', '¦')}` |")
 

@@ -1,16 +1,21 @@
-"""Every bad input of ``tests/bad_input_cases.py``: exit 2, one line, no traceback, nothing left."""
+"""Every bad input of ``tests/bad_input_cases.py`` and ``tests/bad_project_cases.py`` (issue 36):
+exit 2, one line, no traceback, nothing left."""
 
 from __future__ import annotations
 
 import pytest
-from bad_input_cases import CASES
+from bad_input_cases import CASES as INPUT_CASES
+from bad_project_cases import CASES as PROJECT_CASES
 from humaneva_fixture import make_tiny_dataset
 
 from voxelmocap.cli import main
 
 
 def _snapshot(*folders):
-    return {p: p.stat().st_size for f in folders for p in f.rglob("*")}
+    return {p: p.lstat().st_size for f in folders for p in f.rglob("*")}
+
+
+CASES = INPUT_CASES + PROJECT_CASES
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])

@@ -107,23 +107,31 @@ def main(argv: list[str] | None = None) -> int:
     try:
         code = int(args.run(args) or 0)
         logger.debug("exit code %d", code)
-        return code
     except VoxelmocapError as exc:
-        print(f"voxelmocap {args.command}: error: {exc}", file=sys.stderr)
-        # In the log file only, and only if the run had begun: a refused command leaves nothing.
-        logger.error("%s (exit code 2)", exc, extra={"file_only": True})
+        code = _refused(args, exc, logger)
         committed = False
-        return 2
     except KeyboardInterrupt:
         print(f"voxelmocap {args.command}: interrupted", file=sys.stderr)
         logger.error("interrupted (exit code 130)", extra={"file_only": True})
+        code = 130
         committed = False
-        return 130
     except BaseException:
         logger.exception("failed", extra={"file_only": True})
+        logs.finish(False)
         raise
-    finally:
+    try:
         logs.finish(committed)
+    except VoxelmocapError as exc:  # the log file of a finished command cannot be written
+        print(f"voxelmocap {args.command}: error: {exc}", file=sys.stderr)
+        code = 2
+    return code
+
+
+def _refused(args, exc: VoxelmocapError, logger: logging.Logger) -> int:
+    print(f"voxelmocap {args.command}: error: {exc}", file=sys.stderr)
+    # In the log file only, and only if the run had begun: a refused command leaves nothing.
+    logger.error("%s (exit code 2)", exc, extra={"file_only": True})
+    return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

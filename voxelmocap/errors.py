@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["InputError", "VoxelmocapError"]
+__all__ = ["InputError", "VoxelmocapError", "printable"]
 
 
 class VoxelmocapError(Exception):
@@ -30,4 +30,16 @@ class InputError(VoxelmocapError, ValueError):
     def __init__(self, source: str | os.PathLike | None, problem: str):
         self.source = None if source is None else os.fspath(source)
         self.problem = problem
-        super().__init__(problem if self.source is None else f"{self.source}: {problem}")
+        super().__init__(problem if self.source is None else f"{printable(self.source)}: {problem}")
+
+
+def printable(name: str | bytes | os.PathLike) -> str:
+    """A file name as text that any terminal or log can show: bytes that are not UTF-8 (kept by
+    Python as lone surrogates, which cannot be printed) as ``\\xff`` escapes.
+
+    >>> printable(b"cam01\\xff.mp4".decode("utf-8", "surrogateescape"))
+    'cam01\\\\xff.mp4'
+    """
+    name = os.fspath(name)
+    raw = name if isinstance(name, bytes) else name.encode("utf-8", "surrogateescape")
+    return raw.decode("utf-8", "backslashreplace")

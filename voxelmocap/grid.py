@@ -60,6 +60,10 @@ def _format_bytes(n: float) -> str:
     return f"{n:.1f} TB"  # pragma: no cover
 
 
+#: Points per side of the floor lattice :meth:`VoxelGrid.from_rig` samples (at most).
+_MAX_LATTICE = 1201
+
+
 @dataclass(frozen=True)
 class VoxelGrid:
     """A regular grid of cubic voxels.
@@ -160,6 +164,9 @@ class VoxelGrid:
         # Everything a camera can see of the floor near the person lies well within the cameras'
         # horizontal spread; 1.5× the farthest camera is a generous search square.
         half = 1.5 * max(float(np.max(np.linalg.norm(centres[:, :2] - mid, axis=1))), 1000.0)
+        # A lattice of at most _MAX_LATTICE² points: cameras tens of metres apart (a calibration
+        # in the wrong unit) would otherwise allocate gigabytes before any check.
+        step = max(float(step), 2 * half / (_MAX_LATTICE - 1))
         n = int(np.ceil(2 * half / step)) + 1
         xs = mid[0] - half + step * np.arange(n)
         ys = mid[1] - half + step * np.arange(n)

@@ -105,6 +105,9 @@ class RunLogHandler(logging.Handler):
         self._pending: list[str] = [f"{time.strftime(_DATE_FORMAT, time.gmtime(now))}."
                                     f"{int(now % 1 * 1000):03d} START   {header}"]
         self._stream = None
+        #: Set when a write failed (a full disk): later lines are dropped, not reported. The
+        #: command's own outputs meet the same disk and report it as its one error line.
+        self.failed: OSError | None = None
 
     @property
     def committed(self) -> bool:
@@ -112,6 +115,8 @@ class RunLogHandler(logging.Handler):
         return self._stream is not None
 
     def emit(self, record: logging.LogRecord) -> None:
+        if self.failed is not None:
+            return
         try:
             line = self.format(record)
             if self._stream is None:
@@ -119,21 +124,50 @@ class RunLogHandler(logging.Handler):
             else:
                 self._stream.write(line + "\n")
                 self._stream.flush()
+        except OSError as exc:
+            # logging's handleError would print a traceback before the command's error line
+            self._fail(exc)
         except Exception:
             self.handleError(record)
 
+    def _fail(self, exc: OSError) -> None:
+        self.failed = exc
+        stream, self._stream = self._stream, None
+        if stream is not None:
+            with contextlib.suppress(OSError):
+                stream.close()
+
     def commit(self) -> None:
-        """Write the held lines and append every later one directly (idempotent)."""
-        if self._stream is not None:
+        """Write the held lines and append every later one directly (idempotent).
+
+        Raises
+        ------
+        InputError
+            The log file cannot be written (e.g. the disk is full); what this call appended
+            is cut off again, so the file is as it was.
+        """
+        from .errors import InputError
+
+        if self._stream is not None or self.failed is not None:
             return
         self.acquire()
+        size = None
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            size = self.path.stat().st_size if self.path.exists() else None
             # Appended: one run folder keeps the history of every command run on it.
             self._stream = open(self.path, "a", encoding="utf-8")
             self._stream.write("".join(line + "\n" for line in self._pending))
             self._stream.flush()
             self._pending = []
+        except OSError as exc:
+            self._fail(exc)
+            with contextlib.suppress(OSError):  # nothing half-written
+                if size is None:
+                    self.path.unlink(missing_ok=True)
+                else:
+                    os.truncate(self.path, size)
+            raise InputError(self.path, f"cannot write the log ({exc.strerror or exc})") from None
         finally:
             self.release()
 
@@ -141,7 +175,8 @@ class RunLogHandler(logging.Handler):
         self.acquire()
         try:
             if self._stream is not None:
-                self._stream.close()
+                with contextlib.suppress(OSError):
+                    self._stream.close()
                 self._stream = None
                 self._pending = []
         finally:
@@ -199,10 +234,18 @@ def run_started() -> None:
 
 
 def finish(committed: bool) -> None:
-    """End of a command: write the held log lines when ``committed``, then close every handler."""
-    if committed:
-        run_started()
-    unconfigure()
+    """End of a command: write the held log lines when ``committed``, then close every handler.
+
+    Raises
+    ------
+    InputError
+        The held lines cannot be written (the handlers are closed all the same).
+    """
+    try:
+        if committed:
+            run_started()
+    finally:
+        unconfigure()
 
 
 @contextlib.contextmanager

@@ -34,7 +34,11 @@ from scipy import signal
 
 from .errors import InputError
 
-__all__ = ["butterworth", "check_filter", "design", "zero_lag_gain"]
+__all__ = ["MAX_ORDER", "butterworth", "check_filter", "design", "zero_lag_gain"]
+
+#: Highest zero-lag order accepted (a Butterworth of order > 10 per pass is numerically fragile
+#: and no motion-capture filter uses one).
+MAX_ORDER = 20
 
 
 def check_filter(frame_rate: float, cutoff_hz: float, order: int, source="smoothing") -> None:
@@ -44,9 +48,10 @@ def check_filter(frame_rate: float, cutoff_hz: float, order: int, source="smooth
     if not (np.isfinite(cutoff_hz) and 0 < cutoff_hz < frame_rate / 2):
         raise InputError(source, f"the cut-off must be between 0 and half the frame rate "
                                  f"({frame_rate / 2:g} Hz), got {cutoff_hz!r} Hz")
-    if isinstance(order, bool) or int(order) != order or order < 2 or order % 2:
-        raise InputError(source, f"the order must be an even integer >= 2 (the zero-lag "
-                                 f"filter's total order), got {order!r}")
+    if isinstance(order, bool) or int(order) != order or order < 2 or order % 2 \
+            or order > MAX_ORDER:
+        raise InputError(source, f"the order must be an even integer from 2 to {MAX_ORDER} (the "
+                                 f"zero-lag filter's total order), got {order!r}")
 
 
 def design(frame_rate: float, cutoff_hz: float, order: int = 4) -> np.ndarray:

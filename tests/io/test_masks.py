@@ -212,5 +212,5 @@ def test_masks_follow_each_camera_s_video_frames_on_the_humaneva_layout(walk_dat
         given.of(seq.n_frames + 1)
     # a numbered folder with a gap is refused when opened, not in the middle of a run
     sorted((tmp_path / "masks" / cams[0]).iterdir())[3].unlink()
-    with pytest.raises(InputError, match="no mask image for video frame 4"):
+    with pytest.raises(InputError, match="no image file with counter 3"):  # (0-based names)
         PersonMasks(tmp_path / "masks", seq)

@@ -6,6 +6,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from humaneva_fixture import make_tiny_dataset
 from project_fixture import make_project, qca_rig, renamed, write_frames
 
 from voxelmocap.errors import InputError
@@ -129,7 +130,9 @@ def test_frame_rate_and_length_from_the_videos(tmp_path):
     assert seq.frame_rate == 50.0 and seq.n_frames == 3
     assert any("different lengths" in n for n in seq.notes)
     root = _pose2sim(tmp_path / "q", fps={"cam02": 25.0})
-    with pytest.raises(InputError, match="frame rate 25 Hz differs from cam01's 50 Hz"):
+    # the odd one out is named, whatever the order of the videos
+    with pytest.raises(InputError,
+                       match=r"cam02\.mp4: frame rate 25 Hz differs from the 50 Hz of cam01, cam03"):
         _ = open_sequence(root).frame_rate
 
 
@@ -176,10 +179,15 @@ def test_several_trials(tmp_path):
 def test_calibration_option_and_units(tmp_path):
     root = _pose2sim(tmp_path / "p")
     other = tmp_path / "calibration.toml"
-    write_calibration_toml(renamed(_rig(), {"C1": "cam01", "C2": "cam02", "C3": "cam03"}), other)
+    write_calibration_toml(renamed(_rig(), {"C1": "cam01", "C2": "cam02", "C3": "cam03"}), other,
+                           translation_scale=1000.0)
     # a Pose2Sim project's TOML is in metres; one given by --calibration too
     seq = open_sequence(root, calibration=other)
-    assert np.abs(seq.rig["cam01"].T - _rig()["C1"].T * 1000).max() < 1e-6
+    assert np.abs(seq.rig["cam01"].T - _rig()["C1"].T).max() < 1e-6
+    # written in mm, read as metres its cameras would stand kilometres apart: mm (issue 35)
+    write_calibration_toml(renamed(_rig(), {"C1": "cam01", "C2": "cam02", "C3": "cam03"}), other)
+    seq = open_sequence(root, calibration=other)
+    assert np.abs(seq.rig["cam01"].T - _rig()["C1"].T).max() < 1e-6
     with pytest.raises(InputError, match="calibration file not found"):
         open_sequence(root, calibration=tmp_path / "calib.json")
     (tmp_path / "calib.json").write_text("{}")
@@ -327,3 +335,33 @@ def test_info_on_a_project(tmp_path, capsys):
     assert "note: cam02: the video is 640x472, the calibration 640x480: taken as the calibrated " \
            "image with 8 row(s) cropped at the bottom (principal point kept)" in out
     assert out.rstrip().endswith("all files read are valid")
+
+
+# ---------------------------------------------------------------------- issue 36 / issue 35
+def test_trial_names_never_leave_the_run_folder(tmp_path, monkeypatch):
+    """``track .`` and ``track PROJ/videos/..`` name the trial after the project's real folder
+    (not "" or ".."), so RUN/<trial>/<trial>.h5 stays inside RUN."""
+    from bad_input_cases import _project
+
+    data = make_tiny_dataset(tmp_path / "data", n_frames=2)
+    root = _project(data, tmp_path)
+    assert list(Project(root / "videos" / "..").trials) == ["proj"]
+    monkeypatch.chdir(root)
+    project = Project(".")
+    assert list(project.trials) == ["proj"] and project.root == root
+
+
+def test_pose2sim_calibration_in_mm_is_read_as_mm(tmp_path):
+    """Issue 35: a Pose2Sim layout holding a calibration TOML written in mm (FreeMoCap's) would
+    put its cameras kilometres apart read as metres: the geometry says mm, a note says so, and
+    the rig is the one the mm file describes."""
+    from bad_input_cases import _project
+
+    data = make_tiny_dataset(tmp_path / "data", n_frames=2)
+    root = _project(data, tmp_path)
+    truth = read_rig(data / "S1" / "Calibration_Data")
+    write_calibration_toml(truth, root / "calibration" / "Calib.toml")  # mm
+    seq = Project(root).sequence()
+    for cam in truth:
+        np.testing.assert_allclose(seq.rig[cam.name].center, cam.center, atol=1e-6)
+    assert any("taken as mm although Pose2Sim writes metres" in n for n in seq.notes)

@@ -68,22 +68,25 @@ def _results(source):
 
 def run(args: argparse.Namespace) -> int:
     from ..io._outputs import check_output_dir
-    from ..io.exports import export_result, parse_formats
+    from ..io.exports import export_result, landmark_table, parse_formats
     from ..io.results import read_result
     from ..smoothing import check_filter
 
     text = args.format if args.format is not None else ("none" if args.opensim else "trc,csv")
     formats = parse_formats(text)
-    if not formats and not args.opensim:
-        return 0
+    if args.smooth is not None:  # the order alone first: the cut-off depends on each result
+        check_filter(1e5, 1.0, args.order, "--order")
     paths = _results(args.source)
     if args.out:
         check_output_dir(args.out)
+    if not formats and not args.opensim:
+        return 0
     # Everything is read and checked before the first file is written.
     results = [read_result(p) for p in paths]
-    if args.smooth is not None:
-        for path, res in zip(paths, results, strict=True):
-            check_filter(float(res.attrs.get("frame_rate", 0.0)), args.smooth, args.order,
+    for path, res in zip(paths, results, strict=True):
+        landmark_table(res, source=path)  # the result's own numbers, before any filter
+        if args.smooth is not None:
+            check_filter(float(res.attrs["frame_rate"]), args.smooth, args.order,
                          f"{path}: --smooth/--order")
     bodies = [None] * len(paths)
     if args.opensim:

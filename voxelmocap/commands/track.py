@@ -134,8 +134,12 @@ def run(args: argparse.Namespace) -> int:
     config = resolve_config(args)
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     if cameras is not None:
+        from ..io.sequence import open_sequence
         from ..score.cues import CueSet
 
+        # an unknown camera is named as such before the cues judge how many cameras they have
+        open_sequence(args.dataset, args.subject, args.sequence, trial=args.trial,
+                      cameras=cameras, calibration=args.calibration)
         # refused here, before the background models are learnt, when the cameras are named
         CueSet.check_weights_for_cameras(config.cues.weights, cameras)
         if len(cameras) == 1 and config.measurement.grid_origin is None:

@@ -19,7 +19,7 @@ from pathlib import Path
 from ..errors import InputError
 
 __all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "create_temporary",
-           "ensure_output_dir", "temporary_name"]
+           "ensure_output_dir", "temporary_name", "write_error", "write_reason"]
 
 
 def ensure_output_dir(path) -> Path:
@@ -93,7 +93,11 @@ def atomic_path(path) -> Iterator[Path]:
     path = Path(path)
     tmp = create_temporary(path)
     try:
-        yield tmp
+        try:
+            yield tmp
+        except OSError as exc:
+            # The writer's own failure (a full disk, an I/O error): one line, nothing left.
+            raise write_error(path, exc) from None
         try:
             os.replace(tmp, path)
         except OSError as exc:
@@ -101,6 +105,23 @@ def atomic_path(path) -> Iterator[Path]:
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+def write_reason(exc: BaseException) -> str:
+    """Why a write failed, in a few words: the errno's text (an ``OSError``'s, or the one a
+    library's exception names in its text, as HDF5's do), else the exception's first words."""
+    import re
+
+    code = getattr(exc, "errno", None)
+    if code is None:
+        found = re.search(r"errno = (\d+)", str(exc))
+        code = int(found[1]) if found else None
+    return os.strerror(code) if code else " ".join(str(exc).split())[:120]
+
+
+def write_error(path, exc: BaseException) -> InputError:
+    """The one-line error of a write to ``path`` that failed with ``exc``."""
+    return InputError(path, f"cannot write ({write_reason(exc)})")
 
 
 def atomic_write_text(path, text: str, encoding: str = "utf-8") -> None:

@@ -29,6 +29,7 @@ from ..camera import CAPTURE_CENTRE, Camera, Rig, sort_camera_names
 from ..errors import InputError
 from ._atomic import atomic_write_text
 from ._files import is_float, read_text_file
+from .calibration_checks import check_rig
 from .toml import read_toml, write_toml
 
 __all__ = [
@@ -153,7 +154,9 @@ def read_rig(folder, size=DEFAULT_SIZE, names: Iterable[str] | None = None) -> R
                 raise InputError(folder, f"no calibration for camera {n!r} "
                                          f"(have {', '.join(sort_camera_names(files))})")
             selected.append(by_upper[n.upper()])
-    return Rig(read_cal(files[n], name=n, size=sizes.get(n, size)) for n in selected)
+    cameras = [read_cal(files[n], name=n, size=sizes.get(n, size)) for n in selected]
+    check_rig(cameras, folder)
+    return Rig(cameras)
 
 
 def write_rig(rig: Iterable[Camera], folder) -> None:
@@ -192,6 +195,8 @@ def read_calibration_toml(path, *, translation_scale: float = 1.0) -> Rig:
         try:
             name = str(table.get("name", key))
             size = tuple(int(round(float(v))) for v in table["size"])
+            if len(size) != 2 or not all(0 < v <= 100_000 for v in size):
+                raise ValueError(f"size {table['size']!r:.40} is not [W, H] in pixels")
             K = np.asarray(table["matrix"], dtype=float)
             dist = np.asarray(table["distortions"], dtype=float)
             rvec = np.asarray(table["rotation"], dtype=float)
@@ -206,6 +211,9 @@ def read_calibration_toml(path, *, translation_scale: float = 1.0) -> Rig:
                                           source=f"{path} [{key}]"))
     if not cameras:
         raise InputError(path, "no camera tables (with 'matrix') in this calibration TOML")
+    # Units are not known here (read_calibration_file decides them): the rig's geometry is
+    # checked there, the numbers and names now.
+    check_rig(cameras, path, geometry=False)
     return Rig(cameras)
 
 

@@ -16,12 +16,14 @@ into a :class:`~voxelmocap.camera.Rig` in millimetres.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 
 from ..camera import Rig
 from ..errors import InputError
+from .calibration_checks import check_rig
 
 __all__ = ["METRE_SPACING", "calibration_format", "find_calibration", "read_calibration_file"]
 
@@ -114,31 +116,54 @@ def read_calibration_file(path, *, units: str = "auto", binning_factor: float = 
     if fmt == "qualisys":
         from .qualisys import read_qca
 
-        return read_qca(path, binning_factor=binning_factor, notes=notes), set()
+        rig = read_qca(path, binning_factor=binning_factor, notes=notes)
+        check_rig(rig, path)
+        return rig, set()
     if fmt == "easymocap":
         from .easymocap import read_easymocap
 
         folder = path.parent
         intri = _sibling(folder, "intri")
         extri = _sibling(folder, "extri")
-        return read_easymocap(intri, extri)
+        rig, unsized = read_easymocap(intri, extri)
+        spacing = _spacing(rig) / 1000.0  # in the file's unit, metres by EasyMocap's convention
+        if spacing >= METRE_SPACING:
+            notes.append(_unit_note(extri, "EasyMocap writes metres", spacing))
+            rig = Rig(dataclasses.replace(cam, T=np.asarray(cam.T) * 1e-3) for cam in rig)
+        check_rig(rig, extri, intrinsics_source=intri)
+        return rig, unsized
     from .calibration import read_calibration_toml
 
     if units not in ("auto", "m", "mm"):
         raise ValueError(f"units must be 'auto', 'm' or 'mm', got {units!r}")
     rig = read_calibration_toml(path)
+    spacing = _spacing(rig)
     if units == "auto":
-        spacing = _spacing(rig)
         units = "m" if spacing < METRE_SPACING else "mm"
         notes.append(f"{path.name}: translations taken as {'metres' if units == 'm' else 'mm'} "
                      f"(cameras {spacing:.3g} units from their centroid, on median)")
+    elif units == "m" and spacing >= METRE_SPACING:
+        # A Pose2Sim layout holding a calibration written in mm (FreeMoCap's): read as metres
+        # its cameras would stand kilometres apart.
+        notes.append(_unit_note(path, "Pose2Sim writes metres", spacing))
+        units = "mm"
     if units == "m":
         rig = read_calibration_toml(path, translation_scale=1000.0)
+    check_rig(rig, path)
     return rig, set()
 
 
+def _unit_note(path: Path, convention: str, spacing: float) -> str:
+    return (f"{path.name}: translations taken as mm although {convention} (the cameras stand "
+            f"{spacing:.3g} units from their centroid, on median: {spacing / 1000:.3g} km in "
+            "metres)")
+
+
 def _spacing(rig: Rig) -> float:
-    centres = np.array([cam.center for cam in rig])
+    with np.errstate(all="ignore"):
+        centres = np.array([cam.center for cam in rig])
+    if not np.all(np.isfinite(centres)):
+        return float("inf")
     if len(centres) < 2:
         return float(np.linalg.norm(centres[0])) if len(centres) else 0.0
     return float(np.median(np.linalg.norm(centres - centres.mean(axis=0), axis=1)))

@@ -35,6 +35,9 @@ from ._atomic import atomic_write_text
 
 __all__ = ["COLUMNS", "columns", "read_points_csv", "write_landmarks_csv"]
 
+#: Frame numbers a reference may hold (int32).
+MAX_FRAME = 2**31 - 1
+
 #: The columns of the world-frame CSV.
 COLUMNS = ("frame", "time_s", "landmark", "x_mm", "y_mm", "z_mm", "confidence", "spread_mm",
            "observed")
@@ -124,7 +127,11 @@ def read_points_csv(path):
     if not path.is_file():
         raise InputError(path, "CSV file not found" if not path.exists() else "is not a file")
     try:
-        rows = list(csv.reader(path.read_text(encoding="utf-8-sig").splitlines()))
+        text = path.read_text(encoding="utf-8-sig")
+        if "\0" in text:
+            line = text[:text.index("\0")].count("\n") + 1
+            raise InputError(path, f"line {line} holds a NUL byte: not a CSV text file")
+        rows = list(csv.reader(text.splitlines()))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise InputError(path, f"cannot read the CSV file ({exc})") from None
     if not rows:
@@ -150,6 +157,10 @@ def read_points_csv(path):
             xyz = [float(row[i]) if row[i].strip() else np.nan for i in ci]
         except ValueError:
             raise InputError(path, f"line {line}: frame or coordinate is not a number") from None
+        if not -MAX_FRAME <= frame <= MAX_FRAME:
+            raise InputError(path, f"line {line}: frame {row[fi][:24]} is out of range")
+        if any(np.isinf(v) for v in xyz):  # an empty cell (NaN) is a missing value, inf is not
+            raise InputError(path, f"line {line}: a coordinate is not finite")
         name = row[ni].strip()
         if (frame, name) in values:
             raise InputError(path, f"line {line}: {name!r} given twice for frame {frame}")

@@ -24,6 +24,7 @@ import numpy as np
 from ..camera import Camera, Rig
 from ..errors import InputError
 from ._atomic import atomic_write_text
+from .calibration_checks import check_intrinsics
 
 __all__ = ["read_easymocap", "write_easymocap"]
 
@@ -38,8 +39,10 @@ class _Storage:
         self.path = path
         if not path.is_file():
             raise InputError(path, "calibration file not found")
+        text = _prescan(path)
         try:
-            self.fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+            # From memory: the text checked is the text parsed (and the name need not be UTF-8)
+            self.fs = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
         except (cv2.error, SystemError) as exc:
             # OpenCV 5's binding reports a parse error as a SystemError wrapping the cv2.error.
             cause = exc.__cause__ if isinstance(exc, SystemError) and exc.__cause__ else exc
@@ -54,11 +57,20 @@ class _Storage:
         out = []
         for i in range(node.size()):
             item = node.at(i)
-            value = item.string() if item.isString() else str(int(item.real()))
+            if item.isString():
+                value = item.string()
+            else:
+                number = item.real()
+                if not (item.isInt() or (np.isfinite(number) and number == int(number))):
+                    raise InputError(self.path, f"the 'names' list holds {number!r}, not a camera "
+                                                "name")
+                value = str(int(number))
             if value != "none":  # EasyMocap skips "none"
                 out.append(value)
         if not out:
             raise InputError(self.path, "the 'names' list is empty")
+        if len(set(out)) != len(out):
+            raise InputError(self.path, f"camera names are not unique: {out}")
         return out
 
     def matrix(self, key: str, shape, *, required: bool = True):
@@ -92,6 +104,66 @@ class _Storage:
 
     def close(self):
         self.fs.release()
+
+
+#: Largest OpenCV YAML file read (bytes); EasyMocap's are a few kB per camera.
+MAX_YAML_BYTES = 16 << 20
+#: Deepest nesting of YAML sequences and mappings accepted (OpenCV's parser recurses per level
+#: and crashed on 100 000; EasyMocap's files nest 2 deep).
+MAX_YAML_DEPTH = 32
+
+
+def _prescan(path: Path) -> str:
+    """The file's text, refused in one line when too large, not UTF-8, or nested deeper than
+    :data:`MAX_YAML_DEPTH` (flow brackets, block indentation or ``- - -`` sequence dashes),
+    before OpenCV's parser sees it."""
+    try:
+        size = path.stat().st_size
+        if size > MAX_YAML_BYTES:
+            raise InputError(path, f"{size / 2**20:.0f} MB is too large for a calibration file")
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(path, f"cannot read ({exc.strerror or exc.__class__.__name__})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(path, f"not UTF-8 text (byte {exc.start + 1} is 0x{raw[exc.start]:02x})"
+                         ) from None
+    if "\0" in text:
+        raise InputError(path, "holds a NUL byte: not a YAML file")
+    flow = deepest = 0
+    quote = None
+    indents = [0]
+    for line in text.splitlines():
+        stripped = line.lstrip(" ")
+        if quote is None and stripped and not stripped.startswith("#"):
+            indent = len(line) - len(stripped)
+            while indents and indent < indents[-1]:
+                indents.pop()
+            if indent > indents[-1]:
+                indents.append(indent)
+            dashes = len(stripped) - len(stripped.lstrip("- ")) if stripped.startswith("- ") \
+                else 0
+            deepest = max(deepest, len(indents) + stripped[:dashes].count("-"))
+        for ch in line:
+            if quote is not None:
+                if ch == quote:
+                    quote = None
+            elif ch in "\"'":
+                quote = ch
+            elif ch == "#":
+                break
+            elif ch in "[{":
+                flow += 1
+                deepest = max(deepest, len(indents) + flow)
+            elif ch in "]}":
+                flow = max(0, flow - 1)
+        if quote == "'":  # single-quoted scalars do not span lines in these files
+            quote = None
+        if deepest > MAX_YAML_DEPTH:
+            raise InputError(path, f"sequences or mappings nested more than {MAX_YAML_DEPTH} "
+                                   "deep: not an OpenCV calibration file")
+    return text
 
 
 def _first_line(exc: Exception) -> str:
@@ -136,8 +208,22 @@ def read_easymocap(intri, extri) -> tuple[Rig, set[str]]:
                 rot = fe.matrix(f"Rot_{name}", (3, 3), required=False)
                 if rot is None:
                     raise InputError(extri, f"no R_{name} or Rot_{name} for camera {name!r}")
+                err = float(np.abs(rot @ rot.T - np.eye(3)).max())
+                if err > 1e-4 or np.linalg.det(rot) < 0:
+                    # Rodrigues would turn any matrix into some rotation, silently
+                    raise InputError(extri, f"Rot_{name} is not a rotation (|R Rᵀ − I| = "
+                                            f"{err:.2g}, det = {np.linalg.det(rot):.3g})")
                 rvec = cv2.Rodrigues(rot)[0].reshape(3)
-            tvec = fe.matrix(f"T_{name}", (3,)) * 1000.0
+            elif np.linalg.norm(rvec) > 1e3:
+                raise InputError(extri, f"R_{name} {rvec.tolist()} is not a rotation vector")
+            tvec = fe.matrix(f"T_{name}", (3,))
+            if np.max(np.abs(tvec)) > 1e9:  # metres; check_rig says the rest, once in mm
+                raise InputError(extri, f"camera {name} is {np.max(np.abs(tvec)):.3g} m from the "
+                                        "other cameras (T_{name} is out of range)")
+            tvec = tvec * 1000.0
+            check_intrinsics(intri, name, (K[0, 0], K[1, 1]), (K[0, 2], K[1, 2]),
+                             K[0, 1] / K[0, 0] if K[0, 0] else 0.0, dist,
+                             None if h is None or w is None else (w, h))
             size = (w, h) if h is not None and w is not None else PLACEHOLDER_SIZE
             if size == PLACEHOLDER_SIZE:
                 unsized.add(name)

@@ -35,6 +35,12 @@ __all__ = ["FORMATS", "LandmarkTable", "export_path", "export_result", "landmark
            "parse_formats", "write_export"]
 
 FORMATS = ("trc", "c3d", "csv")
+#: Largest frame number exported (a 1 kHz recording of 24 days).
+MAX_FRAME = 2**31 - 1
+#: Most rows an export may span (frames from the first to the last tracked one).
+MAX_EXPORT_ROWS = 1_000_000
+#: Largest frame rate accepted (Hz).
+MAX_FRAME_RATE = 1e5
 #: Pose2Sim's Z-up → Y-up permutation (``Pose2Sim/common.py: zup2yup``): X ← Y, Y ← Z, Z ← X.
 Y_UP = [1, 2, 0]
 #: File-name tag of each frame (the world frame has none).
@@ -89,12 +95,31 @@ def landmark_table(result, *, cutoff_hz: float | None = None, order: int = 4,
     frames = np.asarray(result.frames, dtype=np.int64)
     if len(frames) == 0:
         raise InputError(source, "the result holds no frame")
+    if frames[0] < 1 or frames[-1] > MAX_FRAME:
+        raise InputError(source, f"frame numbers {frames[0]}…{frames[-1]} are outside "
+                                 f"1…{MAX_FRAME}")
     if np.any(np.diff(frames) <= 0):
         raise InputError(source, "frame numbers are not increasing")
-    rate = float(result.attrs.get("frame_rate", np.nan))
-    if not (np.isfinite(rate) and rate > 0):
-        raise InputError(source, "the result has no valid frame_rate attribute")
+    # One row per frame from the first to the last: a gap is rows of NaN, so the span is what
+    # is allocated.
+    span = int(frames[-1] - frames[0]) + 1
+    if span > max(MAX_EXPORT_ROWS, 2 * len(frames)):
+        raise InputError(source, f"frames {frames[0]}…{frames[-1]} span {span} rows for "
+                                 f"{len(frames)} tracked frames: damaged frame numbers")
+    given = result.attrs.get("frame_rate", np.nan)
+    try:
+        rate = (float(given) if isinstance(given, (int, float, np.number))
+                and not isinstance(given, bool) else np.nan)
+    except OverflowError:
+        rate = np.nan
+    if not (np.isfinite(rate) and 0 < rate <= MAX_FRAME_RATE):
+        raise InputError(source, f"the result's frame_rate attribute {given!r:.40} is not a "
+                                 f"number of Hz in (0, {MAX_FRAME_RATE:g}]")
     names = list(result.attrs.get("landmark_names") or LANDMARK_NAMES)
+    landmarks = np.asarray(result.landmarks)
+    if landmarks.ndim != 3 or landmarks.shape[1] != len(names) or landmarks.shape[2] != 3:
+        raise InputError(source, f"{len(names)} landmark names for landmarks of shape "
+                                 f"{landmarks.shape}: damaged result")
     dense = np.arange(frames[0], frames[-1] + 1)
     rows = frames - frames[0]
     n, m = len(dense), len(names)
@@ -156,6 +181,8 @@ def parse_formats(text, source="--format") -> tuple[str, ...]:
     formats = tuple(dict.fromkeys(f.strip().lower() for f in items if f.strip()))
     if formats == ("none",):
         return ()
+    if not formats:
+        raise InputError(source, f"no format given (known: {', '.join(FORMATS)}, or none)")
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise InputError(source, f"unknown format {unknown[0]!r} (known: {', '.join(FORMATS)}, "

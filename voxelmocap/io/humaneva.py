@@ -334,7 +334,11 @@ class Sequence(SynchronisedVideos):
 
     @cached_property
     def _streams(self) -> dict[str, _VideoStream]:
-        return {cam: _VideoStream(self.video_path(cam), _is_gray(cam)) for cam in self.camera_names}
+        streams = {cam: _VideoStream(self.video_path(cam), _is_gray(cam))
+                   for cam in self.camera_names}
+        for stream in streams.values():  # an image folder's every frame, from its bytes: info
+            stream.check_frames()        # and track refuse a bad frame before any work
+        return streams
 
     @cached_property
     def frame_rate(self) -> float:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import InputError
 from ._files import read_text_file
+from ._mat_guard import check_mat_sizes
 from .body_pose_xml import MAX_COORDINATE, BodyPoseSequence
 from .humaneva_mocap_pose import (
     FRAMES,
@@ -195,7 +196,13 @@ def read_mocap_mat(path, *, what: str = "mocap trial", need_labels: bool = True)
 
     path = Path(path)
     if not path.is_file():
+        if path.is_dir():
+            raise InputError(path, f"is a folder, not a {what}")
+        if path.is_symlink():
+            raise InputError(path, f"is a symbolic link that leads nowhere (broken, or a loop), "
+                                   f"not a {what}")
         raise InputError(path, f"{what} not found" if not path.exists() else f"is not a {what}")
+    check_mat_sizes(path)  # what it declares must fit in it before SciPy allocates it
     try:
         data = scipy.io.loadmat(str(path), variable_names=["Markers", "ParameterGroup"])
     except NotImplementedError:
@@ -320,6 +327,9 @@ def read_mp(path) -> SubjectMeasurements:
             value = float(match[2])
         except ValueError:
             raise InputError(path, f"line {number}: {match[2][:20]!r} is not a number") from None
+        if not abs(value) <= MAX_COORDINATE:  # nan, inf, or no length a body has
+            raise InputError(path, f"line {number}: {match[2][:20]!r} is not a finite number "
+                                   "in range")
         entries.append((match[1], value))
     if not entries:
         raise InputError(path, "no '$Name = value' entries")

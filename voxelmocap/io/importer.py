@@ -16,6 +16,7 @@ mapped in the returned outcome.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import re
 from dataclasses import dataclass
@@ -75,7 +76,20 @@ class _LosslessVideo:
     def close(self, ok: bool) -> None:
         self.writer.release()
         if ok:
-            self.tmp.replace(self.path)
+            # OpenCV's writer does not report a failed write (a full disk): the file is read
+            # back, and one that does not hold every frame is not renamed into place.
+            cap = cv2.VideoCapture(str(self.tmp))
+            written = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+            cap.release()
+            if written != self.count:
+                self.tmp.unlink(missing_ok=True)
+                raise InputError(self.path, f"cannot write the video ({written} of {self.count} "
+                                            "frames reached the disk: is it full?)")
+            try:
+                self.tmp.replace(self.path)
+            except OSError as exc:
+                self.tmp.unlink(missing_ok=True)
+                raise InputError(self.path, f"cannot write here ({exc.strerror or exc})") from None
         else:
             self.tmp.unlink(missing_ok=True)
 
@@ -94,6 +108,28 @@ def _write_avi(path: Path, frames, fps: float, size) -> int:
 
 def import_sequence(seq, out, *, subject: str = "S1", action: str | None = None,
                     progress: bool = True, log=print) -> ImportOutcome:
+    """Write an opened sequence (a project's trial) into the HumanEva-I layout under ``out``
+    (see :func:`_import`); a failed import (a full disk, an interruption) removes every file and
+    folder it created, so the data set is as it was."""
+    out = Path(out)
+    existed = out.exists()
+    before = set(out.rglob("*")) if existed and out.is_dir() else set()
+    try:
+        return _import(seq, out, subject=subject, action=action, progress=progress, log=log)
+    except BaseException:
+        if out.is_dir():
+            created = [q for q in out.rglob("*") if q not in before]
+            for q in sorted(created, key=lambda q: len(q.parts), reverse=True):
+                with contextlib.suppress(OSError):
+                    q.rmdir() if q.is_dir() and not q.is_symlink() else q.unlink()
+            if not existed:
+                with contextlib.suppress(OSError):
+                    out.rmdir()
+        raise
+
+
+def _import(seq, out, *, subject: str, action: str | None, progress: bool,
+            log) -> ImportOutcome:
     """Write an opened sequence (a project's trial) into the HumanEva-I layout under ``out``.
 
     Parameters
@@ -154,10 +190,16 @@ def import_sequence(seq, out, *, subject: str = "S1", action: str | None = None,
                 bar.update(1)
         ok = True
     finally:
-        for video in videos.values():
-            video.close(ok)
+        failed = None
+        for video in videos.values():  # every one closed (and, on a failure, deleted)
+            try:
+                video.close(ok and failed is None)
+            except InputError as exc:
+                failed = failed or exc
         if bar is not None:
             bar.close()
+    if failed is not None:
+        raise failed
     n = seq.n_frames
     for cam in rig:
         he = mapping[cam.name]

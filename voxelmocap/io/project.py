@@ -32,7 +32,7 @@ What is assumed is said in the sequence's ``notes`` (``voxelmocap info`` prints 
 from __future__ import annotations
 
 import math
-import re
+import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -41,6 +41,7 @@ import numpy as np
 
 from ..camera import Rig
 from ..errors import InputError
+from ._regex import bounded_search, user_regex
 from .calibration_files import calibration_format, find_calibration, read_calibration_file
 from .project_checks import match_cameras, reconcile_size, world_frame_notes
 from .synchronised import SynchronisedVideos
@@ -141,7 +142,31 @@ def _nearest_calibration(folder: Path, top: Path, kind: str) -> Path | None:
         current = current.parent
 
 
-def _read_config(folder: Path, top: Path) -> dict:
+@dataclass
+class _Config:
+    """A project's ``Config.toml`` (Pose2Sim) or ``config.toml`` (anipose), its types checked."""
+
+    data: dict
+    path: Path | None
+
+    def table(self, *keys: str) -> dict:
+        """The nested table ``[keys[0].keys[1]…]`` ({} when absent)."""
+        table = self.data
+        for depth, key in enumerate(keys):
+            value = table.get(key, {})
+            if not isinstance(value, dict):
+                raise InputError(self.path, f"[{'.'.join(keys[:depth + 1])}] must be a table, "
+                                            f"got {value!r:.40}")
+            table = value
+        return table
+
+
+#: Tables of a project's config that this package reads (checked when the config is read).
+_CONFIG_TABLES = (("project",), ("calibration",), ("calibration", "convert"),
+                  ("calibration", "convert", "qualisys"), ("triangulation",))
+
+
+def _read_config(folder: Path, top: Path) -> _Config:
     """The nearest ``Config.toml`` / ``config.toml`` (Pose2Sim / anipose) from folder up to top."""
     from .toml import read_toml
 
@@ -149,10 +174,25 @@ def _read_config(folder: Path, top: Path) -> dict:
     while True:
         found = _child_file(current, "config.toml")
         if found is not None:
-            return read_toml(found)
+            config = _Config(read_toml(found), found)
+            for keys in _CONFIG_TABLES:  # a value of the wrong type: one line, now
+                config.table(*keys)
+            return config
         if current == top.parent or current.parent == current:
-            return {}
+            return _Config({}, None)
         current = current.parent
+
+
+def _output_name(name: str, where, what: str) -> str:
+    """``name`` as it names the output files ``RUN/<name>/<name>.*``, or :class:`InputError`
+    naming ``where`` when it cannot (empty, dots only, a path separator, hidden, not UTF-8)."""
+    from ..errors import printable
+
+    if (not name.strip(".") or any(c in name for c in "/\\\0") or name.startswith(".")
+            or printable(name) != name):
+        raise InputError(where, f"{what} '{printable(name)}' cannot name the output files "
+                                "(RUN/<trial>/<trial>.h5): rename it")
+    return name
 
 
 def _video_map(folder: Path) -> dict[str, Path]:
@@ -181,7 +221,9 @@ class Project:
     """
 
     def __init__(self, root, calibration=None):
-        self.root = Path(root)
+        # Absolute and without "." or "..": trials are named after folders, and "." or ".."
+        # would name output files outside the run folder.
+        self.root = Path(os.path.normpath(Path(root).absolute()))
         kind = project_kind(self.root)
         if kind is None:
             raise InputError(self.root, "not a Pose2Sim, anipose or EasyMocap project (no videos/, "
@@ -227,6 +269,9 @@ class Project:
                 prefix = "_".join(t.folder.relative_to(self.root).parts)
                 if prefix:
                     t.name = prefix if t.name == t.folder.name else f"{prefix}_{t.name}"
+        for t in trials:
+            _output_name(t.name, t.video_dir if self.kind == "anipose" else t.folder,
+                         "trial name")
         return {t.name: t for t in trials}
 
     def _calibration_for(self, folder: Path) -> Path | None:
@@ -237,16 +282,14 @@ class Project:
     def _anipose_trials(self, session: Path) -> list[Trial]:
         vdir = _child_dir(session, "videos-raw")
         videos = _video_map(vdir)
-        config = _read_config(session, self.root) or self.config
-        regex_text = (config.get("triangulation", {}) or {}).get("cam_regex", ANIPOSE_CAM_REGEX)
-        try:
-            regex = re.compile(regex_text)
-        except re.error as exc:
-            raise InputError("config.toml", f"cam_regex {regex_text!r} is not a regular "
-                                            f"expression ({exc})") from None
+        config = _read_config(session, self.root)
+        if config.path is None:
+            config = self.config
+        regex_text = config.table("triangulation").get("cam_regex", ANIPOSE_CAM_REGEX)
+        regex = user_regex(regex_text, config.path or "config.toml")
         groups: dict[str, dict[str, Path]] = {}
         for stem, path in videos.items():
-            m = regex.search(stem)
+            m = bounded_search(regex, stem, config.path or "config.toml")
             if m is None or not m.groups():
                 continue
             trial = (stem[:m.start()] + stem[m.end():]).strip("-_ ") or session.name
@@ -284,12 +327,13 @@ class Project:
             notes: list[str] = []
             binning = 1.0
             if calibration_format(trial.calibration) == "qualisys":
-                qualisys = (((self.config.get("calibration") or {}).get("convert") or {})
-                            .get("qualisys") or {})
+                qualisys = self.config.table("calibration", "convert", "qualisys")
                 binning = qualisys.get("binning_factor", 1)
-                if not isinstance(binning, (int, float)) or isinstance(binning, bool):
-                    raise InputError("Config.toml", "[calibration.convert.qualisys] "
-                                                    f"binning_factor must be a number, got {binning!r}")
+                if not isinstance(binning, (int, float)) or isinstance(binning, bool) \
+                        or not (math.isfinite(binning) and 0 < binning <= 64):
+                    raise InputError(self.config.path, "[calibration.convert.qualisys] "
+                                     f"binning_factor must be a number in (0, 64], got "
+                                     f"{binning!r:.40}")
             rig, unsized = read_calibration_file(trial.calibration, units=self.units(),
                                                  binning_factor=binning, notes=notes)
             self._rigs[trial.calibration] = (rig, unsized, notes)
@@ -297,7 +341,7 @@ class Project:
 
     def frame_rate_setting(self) -> float | None:
         """Pose2Sim's ``[project] frame_rate`` when it is a number."""
-        value = (self.config.get("project") or {}).get("frame_rate")
+        value = self.config.table("project").get("frame_rate")
         if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 \
                 and math.isfinite(value):
             return float(value)
@@ -399,13 +443,17 @@ class ProjectSequence(SynchronisedVideos):
         """Frames per second of the videos (they must agree), else the project's, else 30 Hz."""
         rates = {cam: s.fps for cam, s in self._streams.items() if s.fps is not None}
         if rates:
-            first_cam, first = next(iter(rates.items()))
+            # The rate most videos share; the odd one out is the one named.
+            common = max(rates.values(), key=lambda r: sum(abs(r - o) <= 1e-3 * r
+                                                           for o in rates.values()))
             for cam, fps in rates.items():
-                if abs(fps - first) > 1e-3 * first:
+                if abs(fps - common) > 1e-3 * common:
+                    others = [c for c, r in rates.items() if abs(r - common) <= 1e-3 * common]
                     raise InputError(self._streams[cam].path,
-                                     f"frame rate {fps:g} Hz differs from {first_cam}'s {first:g} "
-                                     "Hz: the videos must be synchronised frame by frame")
-            return first
+                                     f"frame rate {fps:g} Hz differs from the {common:g} Hz of "
+                                     f"{', '.join(others)}: the videos must be synchronised frame "
+                                     "by frame")
+            return common
         setting = self.project.frame_rate_setting()
         if setting is not None:
             self.notes.append(f"frame rate {setting:g} Hz from the project's Config.toml")

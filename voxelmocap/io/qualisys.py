@@ -45,6 +45,7 @@ import numpy as np
 
 from ..camera import Camera, Rig
 from ..errors import InputError
+from .calibration_checks import MAX_DISTORTION, MAX_SKEW, check_intrinsics
 
 __all__ = ["QUALISYS_SUBPIXEL", "qca_to_opencv", "read_qca"]
 
@@ -152,13 +153,20 @@ def qca_to_opencv(path, *, binning_factor: float = 1.0, notes: list[str] | None 
         w, h = (right - left + 1) / binning, (bottom - top + 1) / binning
         if w < 1 or h < 1:
             raise InputError(path, f"{where} <fov_video> is empty ({w:g}x{h:g} pixels)")
+        if w > 100_000 or h > 100_000:
+            raise InputError(path, f"{where} <fov_video> is {w:g}x{h:g} pixels: out of range")
         intr = _child(path, cam, "intrinsic", where)
         q = {k: _number(path, intr, k, where) / QUALISYS_SUBPIXEL / binning
              for k in ("focalLengthU", "focalLengthV", "centerPointU", "centerPointV",
                        "radialDistortion1", "radialDistortion2", "tangentalDistortion1",
                        "tangentalDistortion2")}
-        for unused in ("radialDistortion3", "skew"):
+        for unused, limit in (("radialDistortion3", MAX_DISTORTION * QUALISYS_SUBPIXEL),
+                              ("skew", MAX_SKEW * QUALISYS_SUBPIXEL)):
             text = intr.get(unused)
+            if text is not None and _is_float(text) and not abs(float(text)) <= limit:
+                # not used, but a value no calibration holds says the file is broken
+                raise InputError(path, f"{where} <intrinsic> {unused}={text[:20]} is out of "
+                                       "range")
             if notes is not None and text is not None and _is_nonzero(text):
                 notes.append(f"{path.name}: {where} {unused}={text} is not used (as in Pose2Sim)")
         K = np.array([[q["focalLengthU"], 0.0, q["centerPointU"] - left],
@@ -168,6 +176,15 @@ def qca_to_opencv(path, *, binning_factor: float = 1.0, notes: list[str] | None 
                          q["tangentalDistortion1"], q["tangentalDistortion2"]])
         tr = _child(path, cam, "transform", where)
         centre = np.array([_number(path, tr, k, where) for k in ("x", "y", "z")])
+        if np.max(np.abs(centre)) > 1e12:  # R·C would overflow; check_rig says the rest
+            raise InputError(path, f"camera {name} is {np.max(np.abs(centre)) / 1000:.3g} m from "
+                                   "the other cameras (its position is out of range): check its "
+                                   "<transform>")
+        check_intrinsics(path, name, (q["focalLengthU"], q["focalLengthV"]),
+                         (q["centerPointU"] - left, q["centerPointV"] - top), 0.0,
+                         [q[k] for k in ("radialDistortion1", "radialDistortion2",
+                                         "tangentalDistortion1", "tangentalDistortion2")],
+                         (int(round(w)), int(round(h))))
         M = np.array([[_number(path, tr, f"r{r}{c}", where) for c in (1, 2, 3)] for r in (1, 2, 3)])
         R = _FLIP_X @ M
         err = np.abs(R @ R.T - np.eye(3)).max()

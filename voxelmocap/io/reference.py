@@ -131,8 +131,9 @@ def parse_mapping(data: dict, source) -> Mapping:
     if axes is not None and axes not in ("world", "y_up"):
         raise InputError(source, f"reference.axes must be 'world' or 'y_up', got {axes!r}")
     offset = ref.get("frame_offset", 0)
-    if isinstance(offset, bool) or not isinstance(offset, int):
-        raise InputError(source, f"reference.frame_offset must be an integer, got {offset!r}")
+    if isinstance(offset, bool) or not isinstance(offset, int) or abs(offset) > 2**31 - 1:
+        raise InputError(source, f"reference.frame_offset must be an integer within ±(2**31 - "
+                                 f"1), got {offset!r}")
     return Mapping(pairs, axes, int(offset), source)
 
 

@@ -66,6 +66,9 @@ import h5py
 import numpy as np
 
 from ..errors import InputError
+from ._atomic import write_reason
+from ._hdf5 import WRITE_ERRORS as _WRITE_ERRORS
+from ._hdf5 import abandon as _abandon
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "PER_FRAME", "ResultWriter", "TrackResult",
            "check_not_being_written", "read_result", "write_result"]
@@ -279,9 +282,14 @@ class ResultWriter:
         self.path = Path(path)
         if self.path.is_dir():
             raise InputError(self.path, "is a folder; give a file name")
+        # Folders this writer creates, removed again if it never creates the file.
+        self._new_dirs = [p for p in (self.path.parent, *self.path.parent.parents)
+                          if not p.exists()]
         ensure_output_dir(self.path.parent)
         self.temp = self.path.with_name(f".{self.path.name}.partial")
         self._file: h5py.File | None = None
+        self._data: dict[str, h5py.Dataset] = {}
+        self._frame_bytes = 0
         self._n = 0
         self._slot = -1
         self._fd = _try_lock(self.path) if self.path.exists() else None
@@ -346,6 +354,9 @@ class ResultWriter:
             self._check_target(replace)
             if self.temp.exists():  # left by a killed creation: nobody creates without this lock
                 self.temp.unlink()
+            rows = 0 if previous is None else len(previous)
+            self._check_space(_CREATE_BYTES + rows * _row_bytes(template, previous)
+                              + _blob_bytes(previous))
             try:
                 f = h5py.File(self.temp, "w", libver="latest", locking=_LOCKING)
             except OSError as exc:
@@ -357,13 +368,21 @@ class ResultWriter:
                 fd = os.open(self.temp, os.O_RDONLY)
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # a new inode: nobody else has it
                 os.replace(self.temp, self.path)
-            except BaseException:
-                f.close()
+            except BaseException as exc:
+                _abandon(f)
                 self.temp.unlink(missing_ok=True)
+                if isinstance(exc, _WRITE_ERRORS):
+                    raise InputError(self.path, f"cannot write the result ({write_reason(exc)})"
+                                                ": free some space and run again") from None
                 raise
         if self._fd is not None:
             os.close(self._fd)  # the replaced file's lock
         self._fd, self._file = fd, f
+        # Held open for the writer's life: a dataset closed after a failed write would report
+        # the failure in h5py's deallocator, unseen, and the next flush would crash.
+        self._data = {name: f[name] for name in (*PER_FRAME, "checkpoint_0", "checkpoint_1",
+                                                 "commit")}
+        self._frame_bytes = _CHUNK_ROWS * sum(_dataset_row_bytes(self._data[n]) for n in PER_FRAME)
 
     def _check_target(self, replace: bool) -> None:
         """Under the folder lock: may this writer put a new file at ``path``?"""
@@ -433,28 +452,122 @@ class ResultWriter:
         if f is None:
             raise RuntimeError("ResultWriter.append: call start() first")
         n = self._n
-        for name in PER_FRAME:
-            d = f[name]
-            d.resize(n + 1, axis=0)
-            d[n] = _row(record, name)
-        slot = -1  # without a new state, no checkpoint matches the frames any more
-        if checkpoint is not None:
-            slot = 1 if self._slot == 0 else 0  # never overwrite the committed state
-            _write_blob(f[f"checkpoint_{slot}"], _pack_checkpoint(checkpoint))
-        # Everything above reaches the file before the commit that makes it count.
-        f.flush()
-        f["commit"][...] = (n + 1, slot, int(complete))
-        f.flush()
+        blob = None if checkpoint is None else _pack_checkpoint(checkpoint)
+        # Refused before anything is written: the file stays as committed, to be resumed.
+        self._check_space(self._frame_bytes + (0 if blob is None else _round_blob(len(blob))))
+        data = self._data
+        try:
+            for name in PER_FRAME:
+                d = data[name]
+                d.resize(n + 1, axis=0)
+                d[n] = _row(record, name)
+            slot = -1  # without a new state, no checkpoint matches the frames any more
+            if blob is not None:
+                slot = 1 if self._slot == 0 else 0  # never overwrite the committed state
+                _write_blob(data[f"checkpoint_{slot}"], blob)
+            # Everything above reaches the file before the commit that makes it count.
+            f.flush()
+            data["commit"][...] = (n + 1, slot, int(complete))
+            f.flush()
+        except _WRITE_ERRORS as exc:
+            self._fail(exc)
         self._n, self._slot = n + 1, slot
 
+    def _check_space(self, need: int) -> None:
+        """Refuse to write when the result's folder has less than ``need`` (+ a margin) bytes."""
+        free = _free_bytes(self.path.parent)
+        if free is not None and free < need + _SPACE_MARGIN:
+            raise InputError(self.path, f"not enough free space ({free / 1024:.0f} kB free, "
+                                        f"about {(need + _SPACE_MARGIN) / 1024:.0f} kB needed)"
+                                        + self._next_step())
+
+    def _next_step(self) -> str:
+        if self._file is not None or self._n:  # the result exists: it is resumed
+            return (f"; {self._n} frame(s) tracked and kept: free some space and continue "
+                    "with --resume")
+        return ": free some space and run again"
+
+    def _fail(self, exc: BaseException) -> None:
+        """A write failed (a full disk, an I/O error): drop the file without touching it again
+        and raise the one-line error. The frames committed before stay readable and resumable:
+        the file is as a run killed at this instant leaves it."""
+        self._data = {}
+        _abandon(self._file)
+        message = f"cannot write the result ({write_reason(exc)})" + self._next_step()
+        self._file = None
+        raise InputError(self.path, message) from None
+
     def close(self) -> None:
-        """Close the file and release the lock (idempotent)."""
-        if self._file is not None:
-            self._file.close()
-            self._file = None
-        if self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
+        """Close the file and release the lock (idempotent).
+
+        Raises
+        ------
+        InputError
+            The last writes cannot reach the disk (the committed frames are kept).
+        """
+        try:
+            if self._file is not None:
+                try:
+                    self._file.flush()
+                except _WRITE_ERRORS as exc:
+                    self._fail(exc)
+                self._data = {}
+                self._file.close()
+                self._file = None
+        finally:
+            if self._fd is not None:
+                os.close(self._fd)
+                self._fd = None
+            for folder in self._new_dirs:  # a refused run leaves no empty folder behind
+                if self.path.exists():
+                    break
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
+            self._new_dirs = []
+
+
+#: Bytes a new result file needs besides its rows: header, attributes, dataset headers, first
+#: chunks (the file of a 1-frame run is about 100 kB; scripts/bench_results.py).
+_CREATE_BYTES = 1 << 20
+#: Free space left aside beyond what a write needs (HDF5's metadata, the log, the exports).
+_SPACE_MARGIN = 256 << 10
+_BLOB_CHUNK = 1 << 16
+
+
+def _free_bytes(folder: Path) -> int | None:
+    """Bytes an unprivileged process may still write in ``folder``'s file system, or None."""
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def _dataset_row_bytes(d: h5py.Dataset) -> int:
+    return int(np.prod(d.shape[1:], dtype=np.int64)) * d.dtype.itemsize
+
+
+def _row_bytes(template, previous) -> int:
+    """Bytes of one frame's rows (from a record, or the rows of a previous result)."""
+    source = template if template is not None else previous
+    if source is None:
+        return 0
+    total = 0
+    for name in PER_FRAME:
+        shape = (np.shape(_row(source, name)) if template is not None
+                 else np.shape(getattr(previous, name))[1:])
+        total += 8 * int(np.prod(shape, dtype=np.int64))
+    return total
+
+
+def _round_blob(n: int) -> int:
+    return -(-n // _BLOB_CHUNK) * _BLOB_CHUNK
+
+
+def _blob_bytes(previous) -> int:
+    if previous is None or previous.checkpoint is None:
+        return 0
+    return _round_blob(len(_pack_checkpoint(previous.checkpoint)))
 
 
 def _row(record, name: str):

@@ -129,13 +129,19 @@ def write_trc(path, positions, names, *, frame_rate: float, frames=None, axes: s
     return path
 
 
+#: Frame numbers a reference may hold (int32, as C3D and every mocap system).
+MAX_FRAME = 2**31 - 1
+
+
 def _number(path, text: str, what: str, kind=float):
     try:
         value = kind(text)
     except ValueError:
-        raise InputError(path, f"malformed TRC: {what} is {text!r}, not a number") from None
+        raise InputError(path, f"malformed TRC: {what} is {text[:24]!r}, not a number") from None
     if kind is float and not np.isfinite(value):
-        raise InputError(path, f"malformed TRC: {what} is {text!r}")
+        raise InputError(path, f"malformed TRC: {what} is {text[:24]!r}")
+    if kind is int and not -MAX_FRAME <= value <= MAX_FRAME:
+        raise InputError(path, f"malformed TRC: {what} is {text[:24]}, out of range")
     return value
 
 
@@ -155,6 +161,8 @@ def read_trc(path) -> TrcData:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(path, f"cannot read the TRC file ({exc})") from None
+    if "\0" in text:
+        raise InputError(path, "holds a NUL byte: not a TRC text file")
     lines = text.splitlines()
     if len(lines) < 5 or not lines[0].startswith("PathFileType"):
         raise InputError(path, "not a TRC file (no 'PathFileType' header line)")

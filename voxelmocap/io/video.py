@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ._image_headers import check_image
 
 __all__ = ["IMAGE_SUFFIXES", "VIDEO_SUFFIXES", "VideoStream", "find_videos", "is_image_folder"]
 
@@ -32,14 +33,33 @@ VIDEO_SUFFIXES = frozenset({".avi", ".mp4", ".mov", ".mkv", ".m4v", ".mpg", ".mp
                             ".webm", ".mts", ".m2ts"})
 
 
+def _utf8_name(path: Path) -> Path:
+    """``path``, or :class:`InputError` naming its folder when its name is not valid UTF-8
+    (OpenCV cannot be handed such a name: it crashed on one)."""
+    from ..errors import printable
+
+    if printable(path.name) != path.name:
+        raise InputError(path.parent, f"file name '{printable(path.name)}' is not valid UTF-8: "
+                                      "rename it")
+    return path
+
+
 def _numbered_images(folder: Path) -> dict[int, Path]:
-    """``{counter: file}`` of the numbered image files of ``folder`` (last digit run of the stem)."""
+    """``{counter: file}`` of the numbered image files of ``folder`` (last digit run of the stem).
+
+    An entry named like a frame that is not a file (a folder ``frame_000002.png/``) counts as
+    that frame, so that it is refused as one rather than skipped.
+    """
     numbered = {}
     for p in folder.iterdir():
-        if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES:
+        if p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith("."):
             digits = re.findall(r"\d+", p.stem)
             if digits:
-                numbered[int(digits[-1])] = p
+                counter = int(digits[-1])
+                if counter in numbered:
+                    raise InputError(folder, f"two image files with counter {counter}: "
+                                             f"{numbered[counter].name}, {p.name}")
+                numbered[counter] = _utf8_name(p)
     return numbered
 
 
@@ -60,9 +80,16 @@ def find_videos(folder) -> dict[str, Path]:
         if p.name.startswith("."):
             continue
         if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES:
-            out[p.stem] = p
+            name = p.stem
         elif is_image_folder(p):
-            out[p.name] = p
+            name = p.name
+        else:
+            continue
+        _utf8_name(p)
+        if name in out:  # cam01.mp4 and cam01.avi: which one is the camera's?
+            raise InputError(folder, f"two videos named {name!r} ({out[name].name}, {p.name}): "
+                                     "keep one")
+        out[name] = p
     return out
 
 
@@ -104,15 +131,24 @@ class VideoStream:
             if not numbered:
                 raise InputError(path, "image folder holds no numbered image files")
             # Video frame k (1-based) is the file with counter first + k − 1 (toolkit
-            # cur_image); a gap is an error, never a silent shift of later frames.
+            # cur_image); a gap is an error, never a silent shift of later frames, and it is
+            # refused now: a stray frame_999999999.png would otherwise declare 1e9 frames.
             self._first = min(numbered)
             self._files = numbered
             self.n_frames = max(numbered) - self._first + 1
             self.fps = None  # numbered images carry no frame rate
+            if self.n_frames != len(numbered):
+                missing = next(c for c in range(self._first, max(numbered) + 1)
+                               if c not in numbered)
+                raise InputError(path, f"no image file with counter {missing} (the files are "
+                                       f"numbered {self._first}–{max(numbered)}, "
+                                       f"{len(numbered)} of them)")
+            self._checked = False
         else:
             self._files = None
             if not path.is_file():
                 raise InputError(path, "video not found")
+            _utf8_name(path)
             cap = cv2.VideoCapture(str(path))
             try:
                 if not cap.isOpened():
@@ -150,7 +186,16 @@ class VideoStream:
                 if file is None:
                     raise InputError(self.path, f"no image file with counter {self._first + i} "
                                                 f"(video frame {i + 1})")
-                yield i, self._convert(cv2.imread(str(file), cv2.IMREAD_UNCHANGED), i)
+                if not self._checked:
+                    check_image(file)  # a declared 60000x60000 never reaches the decoder
+                try:
+                    image = cv2.imread(str(file), cv2.IMREAD_UNCHANGED)
+                except cv2.error as exc:
+                    raise InputError(file, f"cannot decode the image ({_cv_message(exc)})"
+                                     ) from None
+                if image is None:
+                    raise InputError(file, f"cannot decode the image (video frame {i + 1})")
+                yield i, self._convert(image, i)
             return
         cap = cv2.VideoCapture(str(self.path))
         try:
@@ -184,11 +229,35 @@ class VideoStream:
             return []
         return [k + 1 for k in range(count) if self._first + k not in self._files]
 
+    def check_frames(self) -> None:
+        """Check every frame file of an image folder from its bytes (whole, of the first frame's
+        size; :func:`~voxelmocap.io._image_headers.check_image`) without decoding one; a no-op
+        for a video file, whose frames are checked as they are decoded."""
+        if self._files is None or self._checked:
+            return
+        first = None
+        for counter in sorted(self._files):
+            file = self._files[counter]
+            size = check_image(file)
+            if first is None:
+                first = size
+            elif size is not None and first is not None and size != first:
+                raise InputError(file, f"image is {size[0]}x{size[1]}, the folder's first "
+                                       f"frame {first[0]}x{first[1]}")
+        self._checked = True
+
     def first_frame(self) -> np.ndarray:
         """The first frame, decoded (checks that the video really decodes)."""
         return next(iter(self.read([0])))[1]
 
     def frame_size(self) -> tuple[int, int]:
-        """``(W, H)`` of the first decoded frame."""
+        """``(W, H)`` of the first decoded frame (an image folder's every frame checked first:
+        :meth:`check_frames`)."""
+        self.check_frames()
         image = self.first_frame()
         return int(image.shape[1]), int(image.shape[0])
+
+
+def _cv_message(exc: Exception) -> str:
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return (lines[-1] if lines else type(exc).__name__)[:120]

@@ -119,11 +119,22 @@ class VideoWriter:
         """Finish the video and move it to its name."""
         if self._writer is None:
             return
+        import cv2
+
         self._writer.release()
         self._writer = None
         try:
             if self._tmp.stat().st_size == 0:
                 raise InputError(self.path, "OpenCV wrote nothing (disk full?)")
+            # OpenCV does not report a failed write (a full disk): the video is read back, and
+            # one that does not hold every frame is not moved to its name.
+            cap = cv2.VideoCapture(str(self._tmp))
+            written = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+            cap.release()
+            if written < self.n_frames:
+                raise InputError(self.path, f"cannot write the video ({written} of "
+                                            f"{self.n_frames} frames reached the disk: is it "
+                                            "full?)")
             os.replace(self._tmp, self.path)
         except OSError as exc:
             raise InputError(self.path, f"cannot write the video ({exc.strerror or exc})") \

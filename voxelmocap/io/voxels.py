@@ -36,7 +36,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..grid import VoxelGrid
-from ._atomic import atomic_path, create_temporary
+from ._atomic import atomic_path, create_temporary, write_error
+from ._hdf5 import WRITE_ERRORS, abandon
 
 __all__ = ["FORMAT", "VERSION", "VoxelDump", "VoxelDumpWriter", "write_ply"]
 
@@ -97,6 +98,7 @@ class VoxelDumpWriter:
         f.create_dataset("frames", shape=(0,), maxshape=(None,), dtype=np.int32, chunks=(1024,))
         self._n = 0
         self._present: tuple | None = None
+        self._datasets: dict = {}
 
     def __enter__(self) -> VoxelDumpWriter:
         return self
@@ -114,12 +116,16 @@ class VoxelDumpWriter:
         return self._n
 
     def _dataset(self, name: str, shape: tuple, dtype, chunk: tuple):
-        f = self._file
-        if name not in f:
-            f.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype,
-                             chunks=(1, *chunk), compression="gzip",
-                             compression_opts=self._level, shuffle=dtype == np.float32)
-        return f[name]
+        # handles held for the file's life (see io._hdf5: a failed write must not surface only
+        # when a dropped handle is deallocated)
+        if name not in self._datasets:
+            f = self._file
+            if name not in f:
+                f.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype,
+                                 chunks=(1, *chunk), compression="gzip",
+                                 compression_opts=self._level, shuffle=dtype == np.float32)
+            self._datasets[name] = f[name]
+        return self._datasets[name]
 
     def write(self, frame: int, occupancy, *, surface=None, smoothed=None, masks=None) -> None:
         """Append one frame.
@@ -148,29 +154,45 @@ class VoxelDumpWriter:
         shape = self.grid.shape
         items = [("occupancy", occupancy, np.uint8), ("surface", surface, np.uint8),
                  ("smoothed", smoothed, np.float32)]
+        volumes = []
         for name, value, dtype in items:
             if value is None:
                 continue
             arr = self.grid.check_volume(value, name)
-            arr = (arr != 0).astype(np.uint8) if dtype == np.uint8 else arr.astype(np.float32)
-            ds = self._dataset(name, shape, dtype, shape)
-            ds.resize(self._n + 1, axis=0)
-            ds[self._n] = arr
+            volumes.append((name, dtype, shape, shape,
+                            (arr != 0).astype(np.uint8) if dtype == np.uint8
+                            else arr.astype(np.float32)))
         if masks is not None:
             m = np.asarray(masks)
             if m.ndim != 3 or (self.cameras and len(m) != len(self.cameras)):
                 raise InputError("masks", f"expected ({len(self.cameras) or 'N_C'}, H, W) masks, "
                                           f"got shape {m.shape}")
-            ds = self._dataset("masks", m.shape, np.uint8, (1, *m.shape[1:]))
-            if ds.shape[1:] != m.shape:
+            known = self._datasets.get("masks")
+            if known is not None and known.shape[1:] != m.shape:
                 raise InputError("masks", f"shape {m.shape} differs from earlier frames' "
-                                          f"{ds.shape[1:]}")
-            ds.resize(self._n + 1, axis=0)
-            ds[self._n] = (m != 0).astype(np.uint8)
-        frames = self._file["frames"]
-        frames.resize(self._n + 1, axis=0)
-        frames[self._n] = int(frame)
+                                          f"{known.shape[1:]}")
+            volumes.append(("masks", np.uint8, m.shape, (1, *m.shape[1:]),
+                            (m != 0).astype(np.uint8)))
+        try:
+            for name, dtype, row_shape, chunk, value in volumes:
+                ds = self._dataset(name, row_shape, dtype, chunk)
+                ds.resize(self._n + 1, axis=0)
+                ds[self._n] = value
+            frames = self._dataset("frames", (), np.int32, ())
+            frames.resize(self._n + 1, axis=0)
+            frames[self._n] = int(frame)
+            self._file.flush()  # a full disk is met here, not in a handle's deallocator
+        except WRITE_ERRORS as exc:
+            self._fail(exc)
         self._n += 1
+
+    def _fail(self, exc: BaseException) -> None:
+        self._datasets = {}
+        abandon(self._file)
+        self._file = None
+        with contextlib.suppress(FileNotFoundError):
+            self._tmp.unlink()
+        raise write_error(self.path, exc) from None
 
     def close(self) -> None:
         """Finish the file and move it to its final name."""
@@ -178,6 +200,11 @@ class VoxelDumpWriter:
             return
         try:
             self._file.attrs["n_frames"] = self._n
+            self._file.flush()
+        except WRITE_ERRORS as exc:
+            self._fail(exc)
+        try:
+            self._datasets = {}
             self._file.close()
             self._file = None
             os.replace(self._tmp, self.path)
@@ -188,8 +215,8 @@ class VoxelDumpWriter:
     def abort(self) -> None:
         """Discard the file (nothing is left under the final name, nor a temporary)."""
         if self._file is not None:
-            with contextlib.suppress(Exception):
-                self._file.close()
+            self._datasets = {}
+            abandon(self._file)  # its content is discarded: nothing more need reach the disk
             self._file = None
         with contextlib.suppress(FileNotFoundError):
             self._tmp.unlink()
