@@ -28,9 +28,10 @@ Per run:
   (``evaluation.first_lasting_frame``; "never" when the last frame is off).
 * μ (mean landmark error, mm) and MMTA (δ = 100 mm), wall time and seconds per frame.
 
-``--start-turned`` starts every run turned 180° on purpose (the config key ``init.start_turned
-= true``, the tracker's test hook) and reports at which frame each run turned round (issue 33:
-within 30 frames, counted here as "turned round at" frame 30 or earlier).
+``--start-turned`` starts every run from the render's ground truth turned 180° on purpose (the
+config keys ``init.method = "ground_truth"`` and ``init.start_turned = true``, the tracker's test
+hook) and reports at which frame each run turned round (issue 33: within 30 frames, counted here
+as "turned round at" frame 30 or earlier).
 
 A render whose ground truth leaves the cameras' common view (some endpoint unseen by some camera,
 ``voxelmocap.synth.heading.frames_out_of_view``) is reported, and its runs are marked ``!``.
@@ -177,9 +178,14 @@ def run_one(run: dict, renders: str, runs_dir: str, config_toml: str) -> dict:
     render = json.loads((folder / "render.json").read_text())
     messages: list[str] = []
     t0, cpu0 = time.perf_counter(), _cpu_seconds()
-    outcome = track_sequence(folder / "stripped", run["subject"], seq_name, run_dir,
-                             config=config_from_toml(config_toml, "bench config"),
-                             seed=run["seed"], frames=f"1:{run['frames']}", resume=True,
+    # --start-turned starts from the render's ground truth turned round (init.method =
+    # ground_truth with init.start_turned): a start exactly 180° wrong, with left and right
+    # exchanged; without it the copy stripped of the answer is tracked
+    config = config_from_toml(config_toml, "bench config")
+    source = folder / ("data" if config.init.start_turned else "stripped")
+    outcome = track_sequence(source, run["subject"], seq_name, run_dir,
+                             config=config, seed=run["seed"], frames=f"1:{run['frames']}",
+                             resume=True,
                              progress=False, log=messages.append)
     wall, cpu = time.perf_counter() - t0, _cpu_seconds() - cpu0
     gt_path = Dataset(folder / "data").sequence(run["subject"], seq_name).ground_truth_path
@@ -327,6 +333,7 @@ def build_config(args):
     overrides = parse_sets(args.set)
     if args.start_turned:
         overrides["init.start_turned"] = True
+        overrides["init.method"] = "ground_truth"
     config = with_overrides(config, **overrides)
     text = config_to_toml(config)
     if args.tag:
