@@ -14,6 +14,7 @@ import contextlib
 import resource
 import shutil
 import struct
+import zlib
 
 import numpy as np
 import pytest
@@ -279,3 +280,21 @@ def test_export_table(frames, rate, names):
         map_state=rng.normal(size=(n, 27)),
         attrs={"frame_rate": rate, "landmark_names": [f"l{i}" for i in range(names)] or None})
     refused_in_one_line(lambda: landmark_table(result, source="r.h5"), "r.h5")
+
+
+def test_mat_guard_stops_at_the_end_of_a_compressed_stream(tmp_path):
+    """A compressed variable whose zlib stream ends before its element does (trailing bytes) is
+    read to the stream's end, not looped on: zlib keeps the trailing bytes as an unconsumed tail
+    that no further call consumes (a CI run hung on such a draw)."""
+    from voxelmocap.io._mat_guard import check_mat_sizes
+
+    inner = zlib.compress(b"\x0e\x00\x00\x00" + b"\x00" * 5)  # inflates past the 8-byte head
+    assert zlib.decompress(inner)  # a valid stream: the trailing bytes are the only damage
+    body = inner + b"trailing"
+    header = b"MATLAB 5.0 MAT-file".ljust(124, b" ") + b"\x00\x01IM"
+    path = tmp_path / "x.mat"
+    path.write_bytes(header + struct.pack("<II", 15, len(body)) + body)
+
+    check_mat_sizes(path)  # returns: the layout is left to SciPy's reader, which refuses it
+    from voxelmocap.io.humaneva_mocap import read_mocap_mat
+    refused_in_one_line(lambda: read_mocap_mat(path, need_labels=False), path)
