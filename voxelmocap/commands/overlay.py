@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -30,7 +32,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--fps", type=float,
                         help="video frame rate (default: the data's, as the result file "
                              "records it: the video plays in real time)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.set_defaults(run=run)
 
 
