@@ -371,8 +371,8 @@ class Project:
         kept, left_out = [], []
         for trial in self.trials.values():
             try:
-                excluded = excluded_from_batch(self.config(trial.folder),
-                                               trial.folder.relative_to(self.root))
+                excluded = excluded_from_batch(self.config(trial.folder), trial.folder,
+                                               self.root)
             except InputError:
                 excluded = False
             if excluded:

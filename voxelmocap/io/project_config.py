@@ -180,11 +180,12 @@ def frame_rate_setting(config: TrialConfig) -> float | None:
                      f"[project] frame_rate must be 'auto' or a positive number, got {value!r}")
 
 
-def excluded_from_batch(config: TrialConfig, relative: Path) -> bool:
-    """Whether Pose2Sim's ``[project] exclude_from_batch`` names the trial at ``relative``.
+def excluded_from_batch(config: TrialConfig, folder: Path, top: Path) -> bool:
+    """Whether Pose2Sim's ``[project] exclude_from_batch`` names the trial in ``folder``.
 
-    An entry names a trial by its folder's name or by its path from the project folder
-    (``'S00_P00_Participant/S00_P00_T00_StaticTrial'``, as Pose2Sim's template shows).
+    An entry names a trial by its folder's name (what Pose2Sim compares) or by its path from the
+    project folder ``top`` (``'S00_P00_Participant/S00_P00_T00_StaticTrial'``, as Pose2Sim's
+    template shows).
     """
     entries = config.get("project", "exclude_from_batch", default=[])
     if isinstance(entries, str):
@@ -194,7 +195,8 @@ def excluded_from_batch(config: TrialConfig, relative: Path) -> bool:
                          f"[project] exclude_from_batch must be a list of trial folders, "
                          f"got {entries!r}")
     wanted = {str(e).replace("\\", "/").strip("/").lower() for e in entries}
-    return relative.name.lower() in wanted or relative.as_posix().lower() in wanted
+    relative = Path(folder).relative_to(top).as_posix().lower()
+    return Path(folder).name.lower() in wanted or relative in wanted
 
 
 def nesting_setting(root: Path) -> int | None:
