@@ -161,3 +161,49 @@ def test_pose2sims_demo_batch():
     seq = project.sequence("Trial_2")
     assert seq.frame_rate == 60.0 and len(seq.frame_numbers) == seq.n_frames
     assert any("multi_person = true" in n for n in seq.notes)
+
+
+def test_wrong_types_in_any_file_of_the_cascade_name_that_file(tmp_path):
+    """Issue 36's type checks hold for the cascade of issue 35: a table of the wrong type in a
+    trial's Config.toml is one line naming that file (not the session's), the other trial is
+    unaffected, and the same value in the session's file names the session's."""
+    root = _p2s_session(tmp_path / "s", {".": "[project]\nframe_rate = 25\n"})
+    for text, table in (("project = 5", "[project]"), ("calibration = 'x'", "[calibration]"),
+                        ("[calibration]\nconvert = 'qualisys'", "[calibration.convert]"),
+                        ("[calibration.convert]\nqualisys = [1]",
+                         "[calibration.convert.qualisys]"),
+                        ("triangulation = 5", "[triangulation]")):
+        (root / "Trial_2" / "Config.toml").write_text(text + "\n")
+        project = Project(root)
+        with pytest.raises(InputError) as err:
+            project.sequence("Trial_2")
+        assert str(err.value) == (f"{root / 'Trial_2' / 'Config.toml'}: {table} must be a "
+                                  f"table, got {err.value.problem.split('got ')[1]}")
+        assert project.sequence("Trial_1").frame_rate == 25.0
+    (root / "Trial_2" / "Config.toml").unlink()
+    (root / "Config.toml").write_text("[project]\nframe_rate = 25\n[calibration]\nconvert = 3\n")
+    with pytest.raises(InputError, match=r"\[calibration.convert\] must be a table") as err:
+        Project(root).sequence("Trial_1")
+    assert str(err.value).startswith(f"{root / 'Config.toml'}: ")
+
+
+def test_a_sessions_cam_regex_goes_through_the_safe_regex(tmp_path):
+    """anipose: a session's own config.toml overrides the root's cam_regex (issue 35), and that
+    pattern meets issue 36's guard: nested quantifiers are refused naming the session's file;
+    a safe one groups the session's videos by it."""
+    rig = renamed(_rig(), {"C1": "A", "C2": "B"})
+    root = tmp_path / "experiment"
+    (root / "calibration").mkdir(parents=True)
+    write_calibration_toml(rig, root / "calibration" / "calibration.toml")
+    for cam in "AB":
+        write_frames(root / "day1" / "videos-raw" / f"walk_cam{cam}", _images(2), 30.0, "mp4")
+    (root / "config.toml").write_text("nesting = 1\n[triangulation]\ncam_regex = '-cam([A-Z])'\n")
+    session_config = root / "day1" / "config.toml"
+    session_config.write_text("[triangulation]\ncam_regex = '^(a|aa)*_cam([A-Z])'\n")
+    with pytest.raises(InputError, match="nested quantifiers") as err:
+        Project(root)
+    assert str(err.value).startswith(f"{session_config}: cam_regex ")
+    session_config.write_text("[triangulation]\ncam_regex = '_cam([A-Z])'\n")
+    project = Project(root)
+    assert list(project.trials) == ["walk"]
+    assert list(project.trials["walk"].videos) == ["A", "B"]

@@ -128,3 +128,34 @@ def test_avi_is_motion_jpeg(tmp_path):
             video.write(img)
     decoded, info = _decode(path)
     assert info["codec"] == "mjpeg" and len(decoded) == 6 and info["rate"] == 12
+
+
+@pytest.mark.parametrize("suffix", sorted(VIDEO_CODECS))
+def test_bytes_lost_on_the_way_to_the_disk_are_one_line_and_no_file(tmp_path, monkeypatch,
+                                                                    suffix):
+    """A full disk that no layer reported (issue 36: OpenCV hid one): the file FFmpeg closed
+    lacks its last bytes. The read-back before the rename finds fewer whole frames than were
+    written: one line naming the video, and neither it nor its temporary is left."""
+    import os
+    from pathlib import Path
+
+    real_stat = Path.stat
+
+    def stat_after_losing_bytes(self, *args, **kwargs):
+        if ".partial-" in self.name and not getattr(stat_after_losing_bytes, "done", False):
+            stat_after_losing_bytes.done = True
+            os.truncate(self, real_stat(self).st_size - 300)  # the end of the last frame
+        return real_stat(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "stat", stat_after_losing_bytes)
+    path = tmp_path / f"clip{suffix}"
+    frames = _frames(n=10)
+    with pytest.raises(InputError) as info, VideoWriter(path, 30.0, (64, 48)) as video:
+        for img in frames:
+            video.write(img)
+    assert stat_after_losing_bytes.done
+    message = str(info.value)
+    assert message.startswith(f"{path}: cannot write the video (") and "\n" not in message
+    written = int(message.split("(")[1].split()[0])
+    assert written < 10 and "of 10 frames reached the disk" in message, message
+    assert list(tmp_path.iterdir()) == []
