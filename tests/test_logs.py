@@ -51,7 +51,7 @@ def test_quiet_verbose_and_the_log_file(walk_dataset, tmp_path, capsys):
     assert any("INFO    voxelmocap.run.pipeline:" in line and "is already complete" in line
                for line in lines)
     assert sum("initialised from the ground truth of frame 1" in line for line in lines) == 2
-    assert any("DEBUG   voxelmocap.run.pipeline: result " in line for line in lines)
+    assert any("DEBUG   voxelmocap.run.frame_loop: result " in line for line in lines)
     assert any("voxelmocap.commands.track: results: " in line for line in lines)
 
 
