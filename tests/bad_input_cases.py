@@ -233,6 +233,29 @@ def _track_project(root, tmp, *extra):
     return ["track", str(root), "--out", str(tmp / "run"), "--no-progress", *extra]
 
 
+def _project_bad_frame_range(data, tmp):
+    root = _project(data, tmp)
+    (root / "Config.toml").write_text("[project]\nframe_range = [5]\n")
+    return _track_project(root, tmp)
+
+
+def _freemocap_without_calibration(data, tmp):
+    import shutil
+
+    root = tmp / "recording"
+    (root / "synchronized_videos").mkdir(parents=True)
+    for k, cam in enumerate(("C1", "C2", "BW1")):
+        shutil.copy(data / "S1" / "Image_Data" / f"Walking_1_({cam}).avi",
+                    root / "synchronized_videos" / f"Camera_{k:03d}_synchronized.avi")
+    return ["track", str(root), "--out", str(tmp / "run"), "--no-progress"]
+
+
+def _all_trials_excluded(data, tmp):
+    root = _project(data, tmp)
+    (root / "Config.toml").write_text("[project]\nexclude_from_batch = ['proj']\n")
+    return ["track", str(root), "--all", "--out", str(tmp / "run"), "--no-progress"]
+
+
 def _project_camera_without_video(data, tmp):
     root = _project(data, tmp)
     (root / "videos" / "BW1.avi").unlink()
@@ -455,6 +478,12 @@ CASES: list[Case] = [
          ("{tmp}/proj/calibration/Calib.qca.txt", "viewrotation=90")),
     Case("EasyMocap extri.yml without a camera's T", _easymocap_broken_extri,
          ("{tmp}/emc/extri.yml", "no 'T_C2'")),
+    Case("Pose2Sim Config.toml with a malformed frame_range", _project_bad_frame_range,
+         ("{tmp}/proj/Config.toml", "frame_range must be 'auto', 'all' or [start, end]")),
+    Case("FreeMoCap recording without its calibration TOML", _freemocap_without_calibration,
+         ("{tmp}/recording", "no FreeMoCap calibration (recording_camera_calibration.toml")),
+    Case("track --all where Config.toml excludes every trial", _all_trials_excluded,
+         ("{tmp}/proj", "every trial is excluded from batch analysis")),
     Case("project with several trials and no --trial", _project_two_trials,
          ("{tmp}/proj", "choose one with --trial")),
     Case("track on the HumanEva layout without --subject/--sequence", _humaneva_without_subject,

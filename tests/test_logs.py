@@ -51,7 +51,7 @@ def test_quiet_verbose_and_the_log_file(walk_dataset, tmp_path, capsys):
     assert any("INFO    voxelmocap.run.pipeline:" in line and "is already complete" in line
                for line in lines)
     assert sum("initialised from the ground truth of frame 1" in line for line in lines) == 2
-    assert any("DEBUG   voxelmocap.run.pipeline: result " in line for line in lines)
+    assert any("DEBUG   voxelmocap.run.frame_loop: result " in line for line in lines)
     assert any("voxelmocap.commands.track: results: " in line for line in lines)
 
 
@@ -119,3 +119,41 @@ def test_verbosity_levels(verbosity, shown, capsys):
     # unconfigured, the package is silent (a library must not print)
     logging.getLogger("voxelmocap.anything").warning("nobody sees this")
     assert capsys.readouterr() == ("", "")
+
+
+class _Terminal:
+    """A stand-in for a terminal on standard error: collects what is written, says it is a TTY."""
+
+    def __init__(self):
+        self.text = ""
+
+    def write(self, text):
+        self.text += text
+        return len(text)
+
+    def flush(self):
+        pass
+
+    def isatty(self):
+        return True
+
+
+def test_progress_bars_only_on_a_terminal(walk_dataset, tmp_path, capsys, monkeypatch):
+    track = _track(walk_dataset, tmp_path / "run")
+    track.remove("--no-progress")
+    # under pytest's capture standard error is no terminal: no bar, though none was refused
+    assert not logs.progress_to_terminal()
+    assert main(track) == 0
+    captured = capsys.readouterr()
+    assert "frame/s" not in captured.err + captured.out and "\r" not in captured.err, captured.err
+    assert "initialised from the ground truth of frame 1" in captured.out
+    # on a terminal, the bar is drawn (on standard error), unless --no-progress
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert logs.progress_to_terminal()
+    assert main([*track, "--overwrite"]) == 0
+    assert "2/2" in terminal.text and "frame" in terminal.text, terminal.text
+    terminal.text = ""
+    assert main([*track, "--overwrite", "--no-progress"]) == 0
+    assert terminal.text == ""
+    assert not logs.progress_to_terminal(object())  # no isatty: not a terminal

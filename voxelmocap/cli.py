@@ -6,7 +6,9 @@ users can fix (:class:`voxelmocap.errors.VoxelmocapError`) are printed as one li
 
 ``-v`` / ``-q`` (before or after the subcommand) set how much of the package's logging reaches the
 console (:mod:`voxelmocap.logs`); a subcommand that sets ``log_folder`` (``track``, ``dump``,
-``sweep``) also appends its messages to ``<folder>/voxelmocap.log``.
+``sweep``) also appends its messages to ``<folder>/voxelmocap.log``. A subcommand with
+``--no-progress`` draws no progress bar when standard error is not a terminal either
+(:func:`voxelmocap.logs.progress_to_terminal`).
 """
 
 from __future__ import annotations
@@ -103,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     logs.configure(verbosity, log_dir=log_folder(args) if log_folder else None,
                    argv=sys.argv[1:] if argv is None else argv)
     logger = logging.getLogger("voxelmocap.cli")
+    if getattr(args, "no_progress", None) is False and not logs.progress_to_terminal():
+        args.no_progress = True  # the bars would land in a file or a pipe as noise
+        logger.debug("no progress bars: standard error is not a terminal")
     committed = True
     try:
         code = int(args.run(args) or 0)

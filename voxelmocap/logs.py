@@ -10,6 +10,9 @@ libraries). The command line calls :func:`configure` once:
   on standard output, exactly as the command printed them before, warnings prefixed
   ``warning:``; they are written through ``tqdm.write`` so that a progress bar on the terminal
   is cleared and redrawn around them instead of being broken;
+* progress bars (tqdm, on standard error) are drawn only when standard error is a terminal
+  (:func:`progress_to_terminal`; the command line turns them off otherwise, as
+  ``--no-progress`` does): in a file, a pipe or a CI log they are lines of carriage returns;
 * ``track``, ``dump`` and ``sweep`` append every message (DEBUG included, with a timestamp, the
   level and the logger) to ``RUN/voxelmocap.log``, after a line with the command line.
 
@@ -36,11 +39,14 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["LOG_NAME", "ConsoleHandler", "RunLogHandler", "configure", "emit", "finish",
-           "run_started", "task_log", "unconfigure"]
+__all__ = ["LOG_NAME", "NO_PROGRESS_HELP", "ConsoleHandler", "RunLogHandler", "configure",
+           "emit", "finish", "progress_to_terminal", "run_started", "task_log", "unconfigure"]
 
 #: The log file's name inside the run folder.
 LOG_NAME = "voxelmocap.log"
+
+#: The help of every command's ``--no-progress``.
+NO_PROGRESS_HELP = "no progress bar (there is none anyway when standard error is not a terminal)"
 
 #: The package's root logger.
 PACKAGE = logging.getLogger("voxelmocap")
@@ -221,6 +227,20 @@ def unconfigure() -> None:
             handler.close()
     PACKAGE.setLevel(logging.NOTSET)
     PACKAGE.propagate = True
+
+
+def progress_to_terminal(stream=None) -> bool:
+    """Whether progress bars would reach a terminal: ``stream`` (default standard error, where
+    tqdm draws) is one.
+
+    A bar redraws itself with carriage returns: on a terminal it stays one line, in a file, a
+    pipe, a CI log or a notebook's captured output it is a heap of partial lines.
+    """
+    stream = sys.stderr if stream is None else stream
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):  # no isatty, or a closed stream
+        return False
 
 
 def run_started() -> None:

@@ -255,3 +255,23 @@ def test_voxel_dump_on_a_full_disk(tmp_path):
         assert done.stdout.startswith("REFUSED") and "No space left on device" in done.stdout
         assert str(disk / "v.h5") in done.stdout
         assert list(disk.iterdir()) == []
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".avi"])
+def test_video_on_a_full_disk_is_one_line_and_no_file(tmp_path, suffix):
+    """An overlay video (H.264 or Motion-JPEG through PyAV) meeting a full disk mid-way: one
+    InputError naming the video, and neither it nor its temporary left on the disk."""
+    from voxelmocap.io.video_writer import VideoWriter
+
+    rng = np.random.default_rng(0)
+    with small_disk(tmp_path / "disk", "1m") as disk:
+        filler = fill(disk)
+        os.truncate(filler, os.path.getsize(filler) - 20_000)  # room for a few frames only
+        path = disk / f"overlay{suffix}"
+        with pytest.raises(InputError) as info, VideoWriter(path, 30.0, (64, 48)) as video:
+            for _ in range(40):  # noise: incompressible, ~2 kB per frame or more
+                video.write(rng.integers(0, 256, (48, 64, 3), dtype=np.uint8))
+        message = str(info.value)
+        assert message.startswith(f"{path}: cannot write the video") and "\n" not in message
+        assert "No space left on device" in message or "full" in message, message
+        assert list(disk.iterdir()) == [filler]

@@ -55,7 +55,7 @@ def test_overlay_frame_draws_cones_truth_and_landmarks_on_a_copy():
     assert changed.sum() > 2000  # the cone outlines
 
 
-def _tracked_run(root):
+def _tracked_run(root, **attrs):
     """A tiny data set and a run folder whose result puts a standing body in front of C1."""
     from humaneva_fixture import make_tiny_dataset
 
@@ -75,7 +75,8 @@ def _tracked_run(root):
         endpoints=model.endpoints(state), part_scores=np.zeros((n, len(model.parts), 4)),
         ess=np.ones((n, 1)), betas=np.ones((n, 1)), seconds=np.ones(n),
         log_likelihood=np.zeros(n), map_state=state, state_names=list(model.state_names),
-        part_names=[p.name for p in model.parts], attrs={"complete": True}, checkpoint=None)
+        part_names=[p.name for p in model.parts], attrs={"complete": True, **attrs},
+        checkpoint=None)
     write_result(root / "run" / "S1" / "Walking_1.h5", result)
     return data, root / "run", seq.rig["C1"], result
 
@@ -106,6 +107,32 @@ def test_overlay_command_writes_the_video(tmp_path, capsys):
         _, g, r = img[pix[inside, 1], pix[inside, 0]].astype(int).T
         # red dots (through JPEG) where the tracked landmarks project
         assert np.median(r) > 150 and np.median(r - g) > 80
+
+
+def test_overlay_is_h264_at_the_datas_frame_rate(tmp_path, capsys):
+    import av
+
+    from voxelmocap.cli import main
+
+    data, run, cam, result = _tracked_run(tmp_path, frame_rate=50.0)
+    assert main(["overlay", str(run), "--dataset", str(data), "--no-progress"]) == 0
+    out = run / "S1" / "Walking_1_(C1)_overlay.mp4"
+    assert f"overlay: {out}" in capsys.readouterr().out
+    with av.open(str(out)) as container:
+        stream = container.streams.video[0]
+        assert stream.codec_context.name == "h264" and stream.average_rate == 50
+        decoded = [f.to_ndarray(format="bgr24") for f in container.decode(stream)]
+    assert len(decoded) == 3 and decoded[0].shape == (480, 640, 3)
+    for img, lm in zip(decoded, result.landmarks, strict=True):
+        pix = np.round(cam.project(lm)).astype(int)
+        inside = (pix[:, 0] >= 3) & (pix[:, 0] < 637) & (pix[:, 1] >= 3) & (pix[:, 1] < 477)
+        _, g, r = img[pix[inside, 1], pix[inside, 0]].astype(int).T
+        assert np.median(r) > 150 and np.median(r - g) > 80  # the red landmark dots
+    # --fps still chooses
+    assert main(["overlay", str(run), "--dataset", str(data), "--fps", "12.5", "--out",
+                 str(tmp_path / "slow.mkv"), "--no-progress"]) == 0
+    with av.open(str(tmp_path / "slow.mkv")) as container:
+        assert container.streams.video[0].average_rate == 12.5
 
 
 def _listing(folder):

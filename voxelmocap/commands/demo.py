@@ -6,6 +6,8 @@ import argparse
 import logging
 import time
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -29,7 +31,7 @@ def add_parser(subparsers) -> None:
                         help="use the first N cameras of C1, C2, C3, BW1..BW4 (default 7)")
     parser.add_argument("--voxel-size", type=float, default=20.0, help="voxel edge in mm")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.set_defaults(run=run)
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import argparse
 import logging
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -46,7 +48,7 @@ def add_parser(subparsers) -> None:
                              "passes do: give a run's last pass folder, RUN/<subject>/pass2 by "
                              "default (a project: RUN/<trial>/pass2), to see what its final "
                              "pass measured")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.set_defaults(run=run, log_folder=_log_folder)
 
 

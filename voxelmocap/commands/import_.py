@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from ..logs import NO_PROGRESS_HELP
+
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -25,7 +27,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--subject", default="S1", help="subject folder to write (default S1)")
     parser.add_argument("--action", help="action name, letters only (default: from the trial "
                                          "name)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.set_defaults(run=run)
 
 

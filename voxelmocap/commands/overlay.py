@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -14,7 +16,8 @@ def add_parser(subparsers) -> None:
         help="draw the tracked cones and landmarks (and the ground truth) over a camera's images",
         description="Writes a video of one camera's frames with the tracked body model (coloured "
                     "cone outlines), its landmarks (red) and the ground-truth landmarks (green) "
-                    "when the data set has them.",
+                    "when the data set has them: H.264 at the data's frame rate (.mp4), which "
+                    "browsers and slide software play.",
     )
     parser.add_argument("run_dir", metavar="RUN", help="run folder written by 'voxelmocap track'")
     parser.add_argument("--dataset", required=True, help="the data set that was tracked")
@@ -23,10 +26,13 @@ def add_parser(subparsers) -> None:
                              "(default C1)")
     parser.add_argument("--subject", help="subject (default: the only one in RUN)")
     parser.add_argument("--sequence", help="sequence (default: the only one in RUN)")
-    parser.add_argument("--out", help="output video (.mp4, .avi, .mkv or .mov; default "
-                                      "RUN/<Subject>/<Action>_<Trial>_(<CAM>)_overlay.mp4)")
-    parser.add_argument("--fps", type=float, default=30.0, help="video frame rate (default 30)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--out", help="output video: .mp4, .mov or .mkv (H.264, plays in "
+                                      "browsers and slide software) or .avi (Motion-JPEG); "
+                                      "default RUN/<Subject>/<Action>_<Trial>_(<CAM>)_overlay.mp4")
+    parser.add_argument("--fps", type=float,
+                        help="video frame rate (default: the data's, as the result file "
+                             "records it: the video plays in real time)")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.set_defaults(run=run)
 
 

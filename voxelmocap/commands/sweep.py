@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -52,7 +54,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--delta", type=float, default=100.0, help="MMTA threshold (mm)")
     parser.add_argument("--tolerance", type=float, default=0.0,
                         help="MMTA points below the best that still count as best (default 0)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.add_argument("--out", required=True, help="sweep folder SWEEP")
     parser.set_defaults(run=run, log_folder=lambda args: args.out)
 

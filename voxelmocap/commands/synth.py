@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -51,7 +53,7 @@ def add_parser(subparsers) -> None:
                         help="also write noise-free person masks to <Subject>/Mask_Data/")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing sequence of the same subject/action/trial")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.set_defaults(run=run)
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import logging
 
+from ..logs import NO_PROGRESS_HELP
+
 logger = logging.getLogger(__name__)
 
 
@@ -13,7 +15,8 @@ def add_parser(subparsers) -> None:
         "track",
         help="track one sequence: silhouettes → voxels → annealed particle filter → poses",
         description="Track one sequence of a HumanEva-layout data set (--subject, --sequence) or "
-                    "one trial of a Pose2Sim, anipose or EasyMocap project (--trial when it has "
+                    "one trial of a Pose2Sim, anipose, EasyMocap or FreeMoCap project (--trial "
+                    "when it has "
                     "several; see docs/projects.md). Writes RUN/<Subject>/<Action>_<Trial>.h5 "
                     "(a project: RUN/<trial>/<trial>.h5) "
                     "(states, landmarks, endpoints, per-part scores, ESS, timing, config), the "
@@ -21,13 +24,15 @@ def add_parser(subparsers) -> None:
                     "video's frame rate). Every frame is committed to the result file with the "
                     "filter's state as it is tracked, so --resume continues an interrupted run "
                     "exactly; a result being written by another run is refused. With --all, every "
-                    "sequence of the data set is tracked (as Dask tasks with --scheduler or "
+                    "sequence of the data set or trial of the project is tracked (as Dask tasks "
+                    "with --scheduler or "
                     "--workers), complete results are skipped, and a summary lists what was "
                     "done, skipped and failed (exit code 1 if any failed). Messages are also "
                     "appended to RUN/voxelmocap.log.",
     )
     parser.add_argument("dataset", help="data set root (the folder holding S1/, Background/ …) "
-                                        "or a Pose2Sim / anipose / EasyMocap project folder")
+                                        "or a Pose2Sim / anipose / EasyMocap / FreeMoCap project "
+                                        "folder")
     parser.add_argument("--subject", help="HumanEva layout: e.g. S1 (required unless --all)")
     parser.add_argument("--sequence", help="HumanEva layout: <Action>_<Trial>, e.g. Walking_1 "
                                            "(required unless --all)")
@@ -49,8 +54,11 @@ def add_parser(subparsers) -> None:
                              "second's pose ([measurement.silhouette] plate_passes, [init] "
                              "previous_pass_start; docs/projects.md)")
     parser.add_argument("--all", action="store_true",
-                        help="track every sequence with videos of the data set; finished ones "
-                             "are skipped, interrupted ones resumed")
+                        help="track every sequence with videos of the data set, or every trial "
+                             "of the project (Pose2Sim sessions with cascading Config.toml, "
+                             "anipose nested sessions, FreeMoCap recordings; Pose2Sim's "
+                             "exclude_from_batch left out); finished ones are skipped, "
+                             "interrupted ones resumed")
     parser.add_argument("--scheduler", help="with --all: address of a running Dask scheduler")
     parser.add_argument("--workers", type=int,
                         help="with --all: worker processes of a local Dask cluster (default: "
@@ -59,7 +67,8 @@ def add_parser(subparsers) -> None:
                         help="also write a Rerun recording of the run (cameras, silhouettes, "
                              "voxels, particles, skeleton per frame); needs the 'rerun' extra")
     parser.add_argument("--frames", help="synchronised frames A:B (inclusive; default: every "
-                                         "frame with ground truth)")
+                                         "frame with ground truth, else every frame, or a "
+                                         "Pose2Sim trial's [project] frame_range)")
     parser.add_argument("--config", help="TOML file with [measurement], [likelihood], [filter], "
                                          "[init] settings")
     parser.add_argument("--layers", type=int, help="annealing layers (default 6)")
@@ -74,7 +83,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--resume", action="store_true", help="continue an interrupted run")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing result")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help=NO_PROGRESS_HELP)
     parser.add_argument("--export", metavar="FORMATS",
                         help="landmark files to write beside the result: comma-separated of trc, "
                              "c3d, csv, or none (default: [export] formats, trc,csv)")
@@ -116,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
     if args.all:
-        for name in ("subject", "sequence", "rerun", "masks", "plate_from"):
+        for name in ("subject", "sequence", "trial", "rerun", "masks", "plate_from"):
             if getattr(args, name):
                 raise InputError(f"--{name.replace('_', '-')}",
                                  "not with --all (every sequence is tracked)")
@@ -184,7 +193,8 @@ def _run_all(args: argparse.Namespace) -> int:
     summary = run_batch(args.dataset, args.out, config=resolve_config(args), frames=args.frames,
                         cameras=cameras, seed=args.seed, overwrite=args.overwrite,
                         scheduler=args.scheduler, n_workers=args.workers,
-                        progress=not args.no_progress, cues_given=bool(args.cues))
+                        progress=not args.no_progress, cues_given=bool(args.cues),
+                        calibration=args.calibration)
     logger.info(f"summary: {summary.describe()}")
     for key in summary.done:
         logger.info(f"  done:    {key}")

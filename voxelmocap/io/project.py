@@ -8,11 +8,16 @@ Layouts recognised (``docs/projects.md`` says more)::
     anipose    <session>/calibration/calibration.toml (or <session>/calibration.toml)
                <session>/videos-raw/<trial>-cam<A>.mp4 …  (trials by the config's cam_regex)
                or <project>/<session>/… for several sessions
+               (``nesting`` in the root's config.toml: how deep the sessions lie)
     EasyMocap  <project>/intri.yml, extri.yml, videos/<cam>.mp4 (or images/<cam>/ folders)
+    FreeMoCap  <recording>/synchronized_videos/<cam>.mp4 …,
+               <recording>/<recording>_camera_calibration.toml (mm)     one trial per recording
 
 Every trial is one :class:`ProjectSequence`: its videos are assumed synchronised frame by frame
 (frame k of every video is the same instant, as in Pose2Sim once synchronised), frame rate from
 the videos, no ground truth and no body file. Results of a trial go to ``RUN/<trial>/<trial>.*``.
+A trial's settings come from its configuration files merged from the session down
+(:mod:`voxelmocap.io.project_config`: Pose2Sim's frame range and frame rate are honoured).
 
 What is assumed is said in the sequence's ``notes`` (``voxelmocap info`` prints them):
 
@@ -43,7 +48,16 @@ from ..camera import Rig
 from ..errors import InputError
 from ._regex import bounded_search, user_regex
 from .calibration_files import calibration_format, find_calibration, read_calibration_file
+from .freemocap import SYNCHRONIZED_VIDEOS, find_recording_calibration
 from .project_checks import match_cameras, reconcile_size, world_frame_notes
+from .project_config import (
+    TrialConfig,
+    excluded_from_batch,
+    frame_range_setting,
+    frame_rate_setting,
+    nesting_setting,
+    trial_config,
+)
 from .synchronised import SynchronisedVideos
 from .video import VideoStream, find_videos, natural_key
 
@@ -89,19 +103,50 @@ def _folders_with(root: Path, name: str, depth: int = _MAX_DEPTH) -> list[Path]:
         return out
     for child in sorted(root.iterdir(), key=lambda p: natural_key(p.name)):
         if child.is_dir() and not child.name.startswith(".") and child.name.lower() not in (
-                "calibration", "videos", "videos-raw"):
+                _DATA_FOLDERS):
             out.extend(_folders_with(child, name, depth - 1))
     return out
 
 
+#: Folders of a trial's data, never searched for trials.
+_DATA_FOLDERS = ("calibration", "videos", "videos-raw", SYNCHRONIZED_VIDEOS)
+
+
+def _anipose_sessions(root: Path) -> list[Path]:
+    """anipose's sessions: folders with ``videos-raw/``, ``nesting`` levels below ``root``.
+
+    anipose processes every folder exactly ``nesting`` levels down (``nesting = 0``: the root;
+    negative: every folder at any depth); without a ``nesting`` setting, the root or its
+    descendants up to two levels down.
+    """
+    nesting = nesting_setting(root)
+    if nesting is None:
+        return _folders_with(root, "videos-raw")
+    level, found = [root], []
+    depth = 0
+    while level:
+        if nesting < 0 or depth == nesting:
+            found.extend(f for f in level if _child_dir(f, "videos-raw"))
+        if 0 <= nesting <= depth:
+            break
+        level = [child for folder in level
+                 for child in sorted(folder.iterdir(), key=lambda p: natural_key(p.name))
+                 if child.is_dir() and not child.name.startswith(".")
+                 and child.name.lower() not in _DATA_FOLDERS]
+        depth += 1
+    return found
+
+
 def project_kind(path) -> str | None:
-    """``"easymocap"``, ``"anipose"``, ``"pose2sim"`` or None for a folder."""
+    """``"easymocap"``, ``"anipose"``, ``"freemocap"``, ``"pose2sim"`` or None for a folder."""
     path = Path(path)
     if _child_file(path, "intri.yml", "intri.yaml") and _child_file(path, "extri.yml",
                                                                      "extri.yaml"):
         return "easymocap"
-    if _folders_with(path, "videos-raw"):
+    if _anipose_sessions(path):
         return "anipose"
+    if _folders_with(path, SYNCHRONIZED_VIDEOS):
+        return "freemocap"
     if _folders_with(path, "videos"):
         return "pose2sim"
     return None
@@ -119,6 +164,8 @@ class Trial:
     calibration: Path | None
     background_dir: Path | None = None
     notes: list[str] = field(default_factory=list)
+    #: why ``calibration`` is None, when the layout says (FreeMoCap: none, or several)
+    calibration_problem: str | None = None
 
 
 def _nearest_calibration(folder: Path, top: Path, kind: str) -> Path | None:
@@ -139,47 +186,6 @@ def _nearest_calibration(folder: Path, top: Path, kind: str) -> Path | None:
             return find_calibration(cal)
         if current == stop or current.parent == current:
             return None
-        current = current.parent
-
-
-@dataclass
-class _Config:
-    """A project's ``Config.toml`` (Pose2Sim) or ``config.toml`` (anipose), its types checked."""
-
-    data: dict
-    path: Path | None
-
-    def table(self, *keys: str) -> dict:
-        """The nested table ``[keys[0].keys[1]…]`` ({} when absent)."""
-        table = self.data
-        for depth, key in enumerate(keys):
-            value = table.get(key, {})
-            if not isinstance(value, dict):
-                raise InputError(self.path, f"[{'.'.join(keys[:depth + 1])}] must be a table, "
-                                            f"got {value!r:.40}")
-            table = value
-        return table
-
-
-#: Tables of a project's config that this package reads (checked when the config is read).
-_CONFIG_TABLES = (("project",), ("calibration",), ("calibration", "convert"),
-                  ("calibration", "convert", "qualisys"), ("triangulation",))
-
-
-def _read_config(folder: Path, top: Path) -> _Config:
-    """The nearest ``Config.toml`` / ``config.toml`` (Pose2Sim / anipose) from folder up to top."""
-    from .toml import read_toml
-
-    current = folder
-    while True:
-        found = _child_file(current, "config.toml")
-        if found is not None:
-            config = _Config(read_toml(found), found)
-            for keys in _CONFIG_TABLES:  # a value of the wrong type: one line, now
-                config.table(*keys)
-            return config
-        if current == top.parent or current.parent == current:
-            return _Config({}, None)
         current = current.parent
 
 
@@ -215,7 +221,7 @@ class Project:
     Attributes
     ----------
     kind : str
-        ``"pose2sim"``, ``"anipose"`` or ``"easymocap"``.
+        ``"pose2sim"``, ``"anipose"``, ``"easymocap"`` or ``"freemocap"``.
     trials : dict of str to Trial
         The trials, in natural order.
     """
@@ -226,8 +232,9 @@ class Project:
         self.root = Path(os.path.normpath(Path(root).absolute()))
         kind = project_kind(self.root)
         if kind is None:
-            raise InputError(self.root, "not a Pose2Sim, anipose or EasyMocap project (no videos/, "
-                                        "videos-raw/ or intri.yml + extri.yml)")
+            raise InputError(self.root, "not a Pose2Sim, anipose, EasyMocap or FreeMoCap project "
+                                        "(no videos/, videos-raw/, synchronized_videos/ or "
+                                        "intri.yml + extri.yml)")
         self.kind = kind
         self.calibration_override = None if calibration is None else Path(calibration)
         if self.calibration_override is not None:
@@ -237,11 +244,11 @@ class Project:
                 raise InputError(self.calibration_override, "unknown calibration format "
                                  "(expected a Pose2Sim/anipose .toml, a Qualisys .qca.txt or "
                                  "EasyMocap intri.yml + extri.yml)")
-        self.config = _read_config(self.root, self.root)
+        self._configs: dict[Path, TrialConfig] = {}
         self.trials = self._discover()
         if not self.trials:
             raise InputError(self.root, f"no trial found in this {kind} project")
-        self._rigs: dict[Path, tuple[Rig, set[str], list[str]]] = {}
+        self._rigs: dict[tuple, tuple[Rig, set[str], list[str]]] = {}
 
     # ------------------------------------------------------------------ discovery
     def _discover(self) -> dict[str, Trial]:
@@ -260,8 +267,17 @@ class Project:
                                     self._calibration_for(folder),
                                     _child_dir(folder, "background", "backgrounds")
                                     or _child_dir(self.root, "background", "backgrounds")))
+        elif self.kind == "freemocap":
+            for folder in _folders_with(self.root, SYNCHRONIZED_VIDEOS):
+                vdir = _child_dir(folder, SYNCHRONIZED_VIDEOS)
+                calibration, problem = self.calibration_override, None
+                if calibration is None:
+                    calibration, problem = find_recording_calibration(folder)
+                trials.append(Trial(folder.name, folder, vdir, _video_map(vdir), calibration,
+                                    _child_dir(folder, "background", "backgrounds"),
+                                    calibration_problem=problem))
         else:
-            for session in _folders_with(self.root, "videos-raw"):
+            for session in _anipose_sessions(self.root):
                 trials.extend(self._anipose_trials(session))
         names = [t.name for t in trials]
         for t in trials:
@@ -279,17 +295,28 @@ class Project:
             return self.calibration_override
         return _nearest_calibration(folder, self.root, self.kind)
 
+    def config(self, folder: Path) -> TrialConfig:
+        """The configuration files of a trial's (or session's) folder, merged from the top.
+
+        A Pose2Sim trial opened on its own also inherits its parent folder's ``Config.toml``,
+        as in Pose2Sim (:mod:`voxelmocap.io.project_config`).
+        """
+        folder = Path(os.path.normpath(Path(folder).absolute()))  # as the root is
+        if folder not in self._configs:
+            parent = self.kind == "pose2sim" and _child_dir(self.root, "videos") is not None
+            self._configs[folder] = trial_config(folder, self.root, include_parent=parent)
+        return self._configs[folder]
+
     def _anipose_trials(self, session: Path) -> list[Trial]:
         vdir = _child_dir(session, "videos-raw")
         videos = _video_map(vdir)
-        config = _read_config(session, self.root)
-        if config.path is None:
-            config = self.config
-        regex_text = config.table("triangulation").get("cam_regex", ANIPOSE_CAM_REGEX)
-        regex = user_regex(regex_text, config.path or "config.toml")
+        config = self.config(session)
+        regex_text = config.get("triangulation", "cam_regex", default=ANIPOSE_CAM_REGEX)
+        source = config.source("triangulation", "cam_regex") if config.files else "config.toml"
+        regex = user_regex(regex_text, source)
         groups: dict[str, dict[str, Path]] = {}
         for stem, path in videos.items():
-            m = bounded_search(regex, stem, config.path or "config.toml")
+            m = bounded_search(regex, stem, source)
             if m is None or not m.groups():
                 continue
             trial = (stem[:m.start()] + stem[m.end():]).strip("-_ ") or session.name
@@ -315,37 +342,61 @@ class Project:
         raise InputError(self.root, f"unknown trial {name!r} (have {', '.join(self.trials)})")
 
     def units(self) -> str:
-        """Unit of TOML translations: Pose2Sim writes metres; anipose's is its board's (auto)."""
-        return "m" if self.kind == "pose2sim" else "auto"
+        """Unit of TOML translations: Pose2Sim writes metres, FreeMoCap millimetres
+        (:data:`voxelmocap.io.freemocap.TRANSLATION_UNITS`); anipose's is its board's (auto)."""
+        return {"pose2sim": "m", "freemocap": "mm"}.get(self.kind, "auto")
 
     def calibration(self, trial: Trial) -> tuple[Rig, set[str], list[str]]:
         """The rig (mm), its unsized cameras and the notes of reading a trial's calibration."""
         if trial.calibration is None:
-            raise InputError(trial.folder, "no calibration found (a calibration/ folder with a "
-                                           ".toml, .qca.txt or intri.yml + extri.yml)")
-        if trial.calibration not in self._rigs:
+            raise InputError(trial.folder, trial.calibration_problem or
+                             "no calibration found (a calibration/ folder with a .toml, "
+                             ".qca.txt or intri.yml + extri.yml)")
+        binning = 1.0
+        if calibration_format(trial.calibration) == "qualisys":
+            config = self.config(trial.folder)
+            binning = config.get("calibration", "convert", "qualisys", "binning_factor",
+                                 default=1)
+            if not isinstance(binning, (int, float)) or isinstance(binning, bool) \
+                    or not (math.isfinite(binning) and 0 < binning <= 64):
+                raise InputError(config.source("calibration", "convert", "qualisys",
+                                               "binning_factor"),
+                                 "[calibration.convert.qualisys] binning_factor must be a "
+                                 f"number in (0, 64], got {binning!r:.40}")
+        key = (trial.calibration, binning)
+        if key not in self._rigs:
             notes: list[str] = []
-            binning = 1.0
-            if calibration_format(trial.calibration) == "qualisys":
-                qualisys = self.config.table("calibration", "convert", "qualisys")
-                binning = qualisys.get("binning_factor", 1)
-                if not isinstance(binning, (int, float)) or isinstance(binning, bool) \
-                        or not (math.isfinite(binning) and 0 < binning <= 64):
-                    raise InputError(self.config.path, "[calibration.convert.qualisys] "
-                                     f"binning_factor must be a number in (0, 64], got "
-                                     f"{binning!r:.40}")
             rig, unsized = read_calibration_file(trial.calibration, units=self.units(),
                                                  binning_factor=binning, notes=notes)
-            self._rigs[trial.calibration] = (rig, unsized, notes)
-        return self._rigs[trial.calibration]
+            if self.kind == "freemocap":
+                notes.append(f"{trial.calibration.name}: FreeMoCap calibration, translations "
+                             "read as millimetres")
+            self._rigs[key] = (rig, unsized, notes)
+        return self._rigs[key]
 
-    def frame_rate_setting(self) -> float | None:
-        """Pose2Sim's ``[project] frame_rate`` when it is a number."""
-        value = self.config.table("project").get("frame_rate")
-        if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 \
-                and math.isfinite(value):
-            return float(value)
-        return None
+    def frame_rate_setting(self, trial: Trial | None = None) -> float | None:
+        """Pose2Sim's ``[project] frame_rate`` of a trial (default: the project folder's) when it
+        is a number."""
+        return frame_rate_setting(self.config(self.root if trial is None else trial.folder))
+
+    def batch_trials(self) -> tuple[list[Trial], list[str]]:
+        """The trials ``track --all`` tracks, and the names of those it leaves out.
+
+        Left out: the trials Pose2Sim's ``[project] exclude_from_batch`` names. A trial whose
+        configuration cannot be read is kept: tracking it reports why.
+        """
+        kept, left_out = [], []
+        for trial in self.trials.values():
+            try:
+                excluded = excluded_from_batch(self.config(trial.folder), trial.folder,
+                                               self.root)
+            except InputError:
+                excluded = False
+            if excluded:
+                left_out.append(trial.name)
+            else:
+                kept.append(trial)
+        return kept, left_out
 
     def sequence(self, trial: str | None = None, cameras=None) -> ProjectSequence:
         """Open one trial (see :class:`ProjectSequence`)."""
@@ -371,8 +422,16 @@ class ProjectSequence(SynchronisedVideos):
         self.name = trial.name
         self.action, self.trial = trial.name, ""
         self.problems: list[str] = []
+        # read first: a bad setting is reported before the calibration is
+        self.config = project.config(trial.folder)
+        self._frame_range = frame_range_setting(self.config)
+        self._rate_setting = frame_rate_setting(self.config)
         rig, unsized, cal_notes = project.calibration(trial)
         self.notes: list[str] = [*cal_notes, *trial.notes]
+        if self.config.get("project", "multi_person") is True:
+            self.notes.append(f"{self.config.source('project', 'multi_person')} sets "
+                              "multi_person = true: voxelmocap tracks one person (everyone in "
+                              "view is carved into the same voxels)")
         self._full_rig, self._unsized = rig, unsized
         pairs, cams_left, vids_left = match_cameras(rig.names, list(trial.videos),
                                                     notes=self.notes)
@@ -432,7 +491,35 @@ class ProjectSequence(SynchronisedVideos):
                               + f"): taken as starting together, the first {min(counts.values())} "
                                 "frames are used")
         _ = self.frame_rate  # its assumptions are notes too: all of them exist once the rig does
+        _ = self.frame_numbers
         return Rig(cameras)
+
+    @cached_property
+    def frame_numbers(self) -> np.ndarray:
+        """(F,) 1-based synchronised frame numbers: every frame, or Pose2Sim's ``frame_range``.
+
+        ``[project] frame_range = [start, end]`` counts video frames from 0 and leaves ``end``
+        out (Pose2Sim's ``range(start, end)``): frames ``start + 1 … end`` here. An ``end``
+        beyond the videos stops at their last frame, as Pose2Sim's reading does (noted).
+
+        Raises
+        ------
+        InputError
+            The range starts after the videos' last frame (naming the file that sets it).
+        """
+        n = self.n_frames
+        if self._frame_range is None:
+            return np.arange(1, n + 1)
+        start, end = self._frame_range
+        source = self.config.source("project", "frame_range")
+        if start >= n:
+            raise InputError(source, f"[project] frame_range [{start}, {end}] starts after the "
+                                     f"{n} synchronised frames of {self.name}")
+        last = min(end, n)
+        self.notes.append(f"frames {start + 1}..{last} of {n} from {source} [project] frame_range "
+                          f"[{start}, {end}] (video frames counted from 0, end excluded)"
+                          + (f"; the videos end at frame {n}" if end > n else ""))
+        return np.arange(start + 1, last + 1)
 
     def check_video_sizes(self) -> None:
         """Decode each camera's first frame and reconcile its size with the calibration's."""
@@ -440,24 +527,32 @@ class ProjectSequence(SynchronisedVideos):
 
     @cached_property
     def frame_rate(self) -> float:
-        """Frames per second of the videos (they must agree), else the project's, else 30 Hz."""
+        """Frames per second: Pose2Sim's ``[project] frame_rate`` when it is a number (as in
+        Pose2Sim, whatever the videos state), else the videos' (they must agree), else 30 Hz."""
         rates = {cam: s.fps for cam, s in self._streams.items() if s.fps is not None}
+        video_rate = None
         if rates:
             # The rate most videos share; the odd one out is the one named.
-            common = max(rates.values(), key=lambda r: sum(abs(r - o) <= 1e-3 * r
-                                                           for o in rates.values()))
+            video_rate = max(rates.values(), key=lambda r: sum(abs(r - o) <= 1e-3 * r
+                                                               for o in rates.values()))
             for cam, fps in rates.items():
-                if abs(fps - common) > 1e-3 * common:
-                    others = [c for c, r in rates.items() if abs(r - common) <= 1e-3 * common]
+                if abs(fps - video_rate) > 1e-3 * video_rate:
+                    others = [c for c, r in rates.items()
+                              if abs(r - video_rate) <= 1e-3 * video_rate]
                     raise InputError(self._streams[cam].path,
-                                     f"frame rate {fps:g} Hz differs from the {common:g} Hz of "
-                                     f"{', '.join(others)}: the videos must be synchronised frame "
-                                     "by frame")
-            return common
-        setting = self.project.frame_rate_setting()
+                                     f"frame rate {fps:g} Hz differs from the {video_rate:g} Hz "
+                                     f"of {', '.join(others)}: the videos must be synchronised "
+                                     "frame by frame")
+        setting = self._rate_setting
         if setting is not None:
-            self.notes.append(f"frame rate {setting:g} Hz from the project's Config.toml")
+            if video_rate is None or abs(setting - video_rate) > 1e-3 * video_rate:
+                self.notes.append(f"frame rate {setting:g} Hz from "
+                                  f"{self.config.source('project', 'frame_rate')}"
+                                  + ("" if video_rate is None
+                                     else f" (the videos state {video_rate:g} Hz)"))
             return setting
+        if video_rate is not None:
+            return video_rate
         self.notes.append(f"no video states a frame rate: {DEFAULT_FRAME_RATE:g} Hz assumed")
         return DEFAULT_FRAME_RATE
 
@@ -512,7 +607,10 @@ class ProjectSequence(SynchronisedVideos):
         rig = self.rig
         fps = self.frame_rate
         counts = self.video_frame_counts()
-        lines = [f"    {self.name}: {self.n_frames} frames at {fps:g} Hz, cameras "
+        frames = self.frame_numbers
+        shown = (f"{self.n_frames} frames" if len(frames) == self.n_frames else
+                 f"frames {frames[0]}..{frames[-1]} of {self.n_frames}")
+        lines = [f"    {self.name}: {shown} at {fps:g} Hz, cameras "
                  f"{', '.join(self.camera_names)}",
                  f"      calibration {self.trial_info.calibration}"]
         for cam in self.camera_names:

@@ -4,8 +4,9 @@
 
 * the HumanEva-I layout (:mod:`voxelmocap.io.humaneva`: ``<root>/S1/Image_Data`` …), opened with
   ``subject`` and ``sequence`` as before;
-* a Pose2Sim, anipose or EasyMocap project (:mod:`voxelmocap.io.project`), where ``trial`` (or
-  ``sequence``, or ``subject``) names one trial and may be left out when there is only one.
+* a Pose2Sim, anipose, EasyMocap or FreeMoCap project (:mod:`voxelmocap.io.project`), where
+  ``trial`` (or ``sequence``, or ``subject``) names one trial and may be left out when there is
+  only one.
 
 Both give an object with the interface the pipeline uses: ``rig``, ``camera_names``,
 ``all_camera_names``, ``frames()`` / ``read_frame()``, ``frame_numbers``, ``n_frames``,
@@ -26,7 +27,8 @@ __all__ = ["detect_layout", "open_sequence"]
 
 
 def detect_layout(path) -> str:
-    """``"humaneva"``, ``"pose2sim"``, ``"anipose"`` or ``"easymocap"``: what ``path`` holds.
+    """``"humaneva"``, ``"pose2sim"``, ``"anipose"``, ``"easymocap"`` or ``"freemocap"``: what
+    ``path`` holds.
 
     Raises
     ------
@@ -48,8 +50,9 @@ def detect_layout(path) -> str:
     if kind is None:
         raise InputError(path, "no subject folders of the HumanEva-I layout (<root>/S1/"
                                "Image_Data/…) and not a Pose2Sim (calibration/ + videos/), anipose "
-                               "(calibration.toml + videos-raw/) or EasyMocap (intri.yml + "
-                               "extri.yml + videos/) project")
+                               "(calibration.toml + videos-raw/), EasyMocap (intri.yml + "
+                               "extri.yml + videos/) or FreeMoCap (synchronized_videos/ + "
+                               "<recording>_camera_calibration.toml) project")
     return kind
 
 

@@ -1,9 +1,12 @@
-"""Batch tracking: every sequence of a data set, as Dask tasks, finished ones skipped.
+"""Batch tracking: every sequence of a data set or project, as Dask tasks, finished ones skipped.
 
 ``voxelmocap track DATASET --all --out RUN`` plans one :class:`BatchItem` per sequence
-(:func:`dataset_items`: every subject's sequences that have videos), drops those whose result
-``RUN/<Subject>/<Action>_<Trial>.h5`` is complete and was made with the same configuration and
-seed (:func:`result_is_done`), and runs the rest through :func:`voxelmocap.run.tasks.run_tasks` —
+(:func:`dataset_items`: on the HumanEva-I layout every subject's sequences that have videos; in a
+Pose2Sim, anipose, EasyMocap or FreeMoCap project every trial, Pose2Sim's ``exclude_from_batch``
+left out, each with its own cascading ``Config.toml``), drops those whose result
+``RUN/<Subject>/<Action>_<Trial>.h5`` (a project's: ``RUN/<trial>/<trial>.h5``) is complete and
+was made with the same configuration and seed (:func:`result_is_done`), and runs the rest through
+:func:`voxelmocap.run.tasks.run_tasks` —
 the engine ``voxelmocap sweep`` uses — on a Dask cluster (``scheduler``), a local cluster of
 ``n_workers`` processes, or one after another in this process. Each task is
 :func:`track_item`: :func:`voxelmocap.run.pipeline.track_sequence` with ``resume=True``, so an
@@ -11,8 +14,8 @@ interrupted sequence continues where it stopped. A failing sequence is recorded 
 one-line reason and the others go on; :class:`BatchSummary` says what was done, skipped and
 failed.
 
-Items are plain (subject, sequence) pairs, so other sources of sequences (a project folder's
-trials) can be listed into the same loop.
+Items are plain (subject, sequence) pairs — a project's trial is (trial, trial), as
+:func:`voxelmocap.io.sequence.open_sequence` names it — so every layout runs through one loop.
 
 >>> summary = run_batch("data", "run", n_workers=2)              # doctest: +SKIP
 >>> summary.describe()                                           # doctest: +SKIP
@@ -39,12 +42,13 @@ logger = logging.getLogger(__name__)
 class BatchItem:
     """One sequence of a batch."""
 
-    subject: str
-    sequence: str  #: ``<Action>_<Trial>``
+    subject: str  #: a project's trial: its name
+    sequence: str  #: ``<Action>_<Trial>``; a project's trial: its name again
 
     @property
     def key(self) -> str:
-        return f"{self.subject}/{self.sequence}"
+        """``<Subject>/<Action>_<Trial>``, or a project trial's name."""
+        return self.subject if self.subject == self.sequence else f"{self.subject}/{self.sequence}"
 
     def result_path(self, out_dir) -> Path:
         """Where :func:`voxelmocap.run.pipeline.track_sequence` writes its HDF5 result."""
@@ -63,14 +67,43 @@ class BatchSummary:
         return f"{len(self.done)} done, {len(self.skipped)} skipped, {len(self.failed)} failed"
 
 
-def dataset_items(dataset_root) -> list[BatchItem]:
-    """Every sequence of a HumanEva-layout data set that has videos, subject by subject.
+def dataset_items(dataset_root, calibration=None, left_out: list[str] | None = None
+                  ) -> list[BatchItem]:
+    """Every sequence of a data set or project: what ``track --all`` tracks.
 
-    A sequence that cannot even be opened (no sync files, an unreadable ``.ofs``) is listed too:
-    its task fails with the reason, which the summary reports, rather than vanishing.
+    HumanEva-I layout: every sequence that has videos, subject by subject. A sequence that cannot
+    even be opened (no sync files, an unreadable ``.ofs``) is listed too: its task fails with the
+    reason, which the summary reports, rather than vanishing.
+
+    Project (:class:`voxelmocap.io.project.Project`): every trial in natural order, except those
+    Pose2Sim's ``[project] exclude_from_batch`` names (their names are appended to
+    ``left_out``).
+
+    Parameters
+    ----------
+    dataset_root : str or os.PathLike
+        The data set or project folder.
+    calibration : str or os.PathLike, optional
+        Project only: a calibration file for every trial instead of the project's own.
+    left_out : list of str, optional
+        Receives the names of the trials a project leaves out of a batch.
     """
     from ..io.humaneva import Dataset, Sequence
+    from ..io.sequence import detect_layout
 
+    if detect_layout(dataset_root) != "humaneva":
+        from ..io.project import Project
+
+        trials, excluded = Project(dataset_root, calibration=calibration).batch_trials()
+        if left_out is not None:
+            left_out.extend(excluded)
+        if not trials:
+            raise InputError(dataset_root, "every trial is excluded from batch analysis "
+                                           "([project] exclude_from_batch)")
+        return [BatchItem(trial.name, trial.name) for trial in trials]
+    if calibration is not None:
+        raise InputError("--calibration", "a HumanEva-layout data set reads "
+                                          "<Subject>/Calibration_Data")
     dataset = Dataset(dataset_root)
     items = []
     for subject in dataset.subjects:
@@ -121,7 +154,7 @@ def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) 
 
 def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None, cameras=None,
                seed: int = 0, overwrite: bool = False, progress: bool = False,
-               cues_given: bool = False) -> dict:
+               cues_given: bool = False, calibration=None) -> dict:
     """Track one item (runs in a Dask worker or here); a short description of its result.
 
     The run's messages are appended to ``RUN/voxelmocap.log``, each prefixed with the item's
@@ -135,7 +168,7 @@ def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None,
                                  config=config_from_toml(config_toml), frames=frames,
                                  cameras=cameras, seed=seed, resume=not overwrite,
                                  overwrite=overwrite, progress=progress,
-                                 cues_given=cues_given)
+                                 cues_given=cues_given, calibration=calibration)
     return {"result": str(outcome.result_path), "frames": len(outcome.frames),
             "seconds_per_frame": outcome.seconds_per_frame,
             "resumed_from": outcome.resumed_from}
@@ -144,19 +177,21 @@ def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None,
 def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=None,
               cameras=None, seed: int = 0, overwrite: bool = False, scheduler: str | None = None,
               n_workers: int | None = None, progress: bool = True, items=None,
-              log=None, cues_given: bool = False) -> BatchSummary:
+              log=None, cues_given: bool = False, calibration=None) -> BatchSummary:
     """Track every item (default: :func:`dataset_items`) into ``out_dir``; what happened.
 
     Parameters
     ----------
     dataset : str or os.PathLike
-        HumanEva-layout data set.
+        HumanEva-layout data set, or a Pose2Sim, anipose, EasyMocap or FreeMoCap project.
     out_dir : str or os.PathLike
-        The run folder ``RUN`` (results under ``RUN/<Subject>/``).
+        The run folder ``RUN`` (results under ``RUN/<Subject>/``, a project's under
+        ``RUN/<trial>/``).
     config : TrackConfig, optional
         Settings of every sequence.
     frames : str, optional
-        ``"a:b"`` applied to every sequence (default: each one's frames with ground truth).
+        ``"a:b"`` applied to every sequence (default: each one's frames with ground truth, or
+        all of them; a Pose2Sim trial's: its ``[project] frame_range``).
     cameras : list of str, optional
         Cameras of every sequence (default: each one's all).
     seed : int
@@ -176,6 +211,8 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
         Also receives the ``voxelmocap.run.batch`` logger's messages.
     cues_given : bool
         The cues were chosen (``track --all --cues``): a later tracking pass keeps them.
+    calibration : str or os.PathLike, optional
+        Project only: a calibration file for every trial instead of the project's own.
     """
     from ..io._atomic import ensure_output_dir
     from .tasks import run_tasks
@@ -183,7 +220,10 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
     if n_workers is not None and n_workers < 1:  # before anything is created
         raise InputError("--workers", f"must be at least 1, got {n_workers}")
     config = config or TrackConfig()
-    items = dataset_items(dataset) if items is None else list(items)
+    left_out: list[str] = []
+    items = dataset_items(dataset, calibration, left_out) if items is None else list(items)
+    if left_out:
+        emit(logger, log, f"left out ([project] exclude_from_batch): {', '.join(left_out)}")
     config_toml = config_to_toml(config)
     out_dir = Path(out_dir)
     ensure_output_dir(out_dir)
@@ -201,9 +241,10 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
         run_started()
     here = scheduler is None and n_workers is None
     root, out = str(Path(dataset).resolve()), str(out_dir.resolve())
+    calibration = None if calibration is None else str(Path(calibration).resolve())
     tasks = [(f"track-{item.subject}-{item.sequence}", track_item,
               (item, root, out, config_toml, frames, cameras, seed, overwrite,
-               progress and here, cues_given)) for item in todo]
+               progress and here, cues_given, calibration)) for item in todo]
     by_key = {task[0]: item for task, item in zip(tasks, todo, strict=True)}
 
     def finished(outcome) -> None:  # as each sequence ends, not when all have

@@ -25,7 +25,7 @@ ALL_CAMERAS = "all"
 
 
 def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | None = None,
-                  sequence: str | None = None, out=None, fps: float = 30.0,
+                  sequence: str | None = None, out=None, fps: float | None = None,
                   progress: bool = True) -> Path:
     """Write a video of one camera's frames with a run's tracked poses drawn over them.
 
@@ -41,10 +41,12 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
     subject, sequence : str, optional
         Which result (needed when the run holds more than one).
     out : str or os.PathLike, optional
-        ``.mp4``, ``.avi``, ``.mkv`` or ``.mov`` video (default
-        ``RUN/<Subject>/<Action>_<Trial>_(<CAM>)_overlay.mp4``).
-    fps : float
-        Frame rate of the video.
+        ``.mp4``, ``.mkv`` or ``.mov`` (H.264), or ``.avi`` (Motion-JPEG) video (default
+        ``RUN/<Subject>/<Action>_<Trial>_(<CAM>)_overlay.mp4``; see
+        :mod:`voxelmocap.io.video_writer`).
+    fps : float, optional
+        Frame rate of the video (default: the data's, as the result file records it, so that
+        the video plays in real time).
     progress : bool
         Show a progress bar.
 
@@ -67,7 +69,7 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
     from ..viz.overlay import overlay_all, overlay_frame
 
     if out is not None:
-        check_video_path(out, fps)  # before reading anything
+        check_video_path(out, 1.0 if fps is None else fps)  # before reading anything
     files = [p for p in find_result_files(run_dir) if p.suffix == ".h5"
              and (subject is None or p.parent.name.lower() == subject.lower())
              and (sequence is None or p.stem.lower() == sequence.lower())]
@@ -76,6 +78,8 @@ def overlay_video(run_dir, dataset_root, *, camera: str = "C1", subject: str | N
                                   "--subject and --sequence")
     path = files[0]
     result = read_result(path)
+    if fps is None:
+        fps = float(result.attrs["frame_rate"])  # the rate it was tracked at (60 if unstated)
     every = camera.lower() == ALL_CAMERAS
     seq = open_sequence(dataset_root, path.parent.name, path.stem,
                         cameras=None if every else [camera])
