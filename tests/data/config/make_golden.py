@@ -139,11 +139,9 @@ def probes():
     return out
 
 
-def main():
-    data = [[p, _verdict(p)] for p in probes()]
-    (HERE / "probes.json").write_text(json.dumps(data, indent=None, separators=(",", ":"))
-                                      .replace("],[{", "],\n[{") + "\n")
-    configs = {
+def configs() -> dict:
+    """The configs whose TOML text is kept, by file name."""
+    return {
         "default": TrackConfig(),
         "grid_and_risk": with_overrides(TrackConfig(), **{
             "measurement.grid_origin": (-2000.0, -2000.0, 0.0),
@@ -164,10 +162,16 @@ def main():
             "measurement.carve_holes": 1, "measurement.person_only": True,
             "measurement.grid_placement": "person"}),
     }
-    for name, config in configs.items():
+
+
+def main():
+    data = [[p, _verdict(p)] for p in probes()]
+    (HERE / "probes.json").write_text(json.dumps(data, indent=None, separators=(",", ":"))
+                                      .replace("],[{", "],\n[{") + "\n")
+    for name, config in configs().items():
         (HERE / f"{name}.toml").write_text(config_to_toml(config))
     refused = sum(v != "ok" for _, v in data)
-    print(f"{len(data)} probes ({refused} refused), {len(configs)} configs")
+    print(f"{len(data)} probes ({refused} refused), {len(configs())} configs")
 
 
 if __name__ == "__main__":
