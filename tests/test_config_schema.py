@@ -267,3 +267,11 @@ def test_the_reference_in_docs_usage_is_the_schema():
         block = (f"<!-- config-table {cls._section} -->\n{reference_table(cls)}"
                  "<!-- end config-table -->")
         assert block in text, f"{cls._section}: run scripts/config_reference.py"
+    # the notes under a table ("- `key`, `key` (default): ...") name keys of that section
+    notes = re.findall(r"^### `\[([\w.]+)\]`\n(.*?)(?=^##)", text + "\n##", re.S | re.M)
+    assert [section for section, _ in notes] == [cls._section for cls in SECTIONS]
+    for section, body in notes:
+        names = {f.name for f in dataclasses.fields(_SECTION_OF[section])}
+        for line in re.findall(r"^- (`.*?):", body, re.M):
+            named = re.findall(r"`(\w+)`", line.split(" (")[0])
+            assert named and set(named) <= names, (section, line)

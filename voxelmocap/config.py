@@ -329,8 +329,8 @@ class FilterConfig(Section):
                                     "every this many frames (0 = never)", unit="frames", ge=0)
     limb_sweep_gain: float = setting(2.0, "the periodic sweep moves a limb only when it gains more "
                                      "than this", unit="log-likelihood", ge=0)
-    limb_sweep_max_hull: float = setting(2.0, "... and only on frames whose occupied volume is at "
-                                         "most this many times the body model's", gt=0)
+    limb_sweep_max_hull: float = setting(2.0, "the periodic sweep runs only on frames whose occupied "
+                                         "volume is at most this many times the body model's", gt=0)
     limb_sweep_samples: int = setting(256, "Sobol points per limb of the periodic sweep (rounded up "
                                       "to a power of two)", ge=2)
     limb_swaps: bool = setting(False, "the limb searches first try each pair of limbs exchanged "
