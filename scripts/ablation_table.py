@@ -8,6 +8,9 @@ Each row: the variant, its likelihood evaluations per frame (``--evals TAG=N``, 
 config: the joint search 6 × 600 = 3600), mean μ and MMTA over clips (each clip the mean of its
 seeds), the worst clip, the per-clip μ, and frames per second (median over runs; the whole
 pipeline, measurement included, under the load the run had).
+
+Feeds docs/benchmarks.md, "Accuracy on rendered clips" (the "What each part is worth" table, from
+``bench_no_answer.py --tag T`` runs).
 """
 
 from __future__ import annotations

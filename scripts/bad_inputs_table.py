@@ -5,6 +5,8 @@ checks) on a fresh tiny data set in a temporary folder and prints the command's 
 message, with the temporary paths shortened to ``DATA/`` and ``TMP/``.
 
 Usage: ``python scripts/bad_inputs_table.py > docs/bad_inputs.md``
+
+Not a benchmark: it writes ``docs/bad_inputs.md``.
 """
 
 from __future__ import annotations

@@ -7,6 +7,13 @@ first frame's ground truth) with ``--seeds`` seeds, and evaluated (δ = 100 mm).
 μ, σ, MMTP, MMTA (mean ± sd over seeds) beside the paper's Table 1, plus frames per second.
 
 Usage: ``python scripts/bench_accuracy.py [--frames 100] [--seeds 3] [--out /tmp/voxelmocap_acc]``
+
+Feeds docs/benchmarks.md, "Accuracy on rendered clips": :data:`CLIPS` defines the five clips every
+rendered-clip benchmark uses (``bench_no_answer.py``, ``bench_recovery.py``, ``diagnose_likelihood.py``,
+``landmark_bias.py``, ``body_size_table.py``, ``study_body_size.py`` import it) and :data:`PAPER` the
+paper's row. Its own ground-truth-started table in the Table 1 layout was last recorded on
+2026-11-22, before today's defaults (in git); the section's "with the answer" row now comes from
+``bench_no_answer.py --with-answer``.
 """
 
 from __future__ import annotations

@@ -24,6 +24,8 @@ Examples::
 
 Settings are named cue selections (``SETTINGS``); a setting needing voxels is skipped below two
 cameras (the product refuses it), and ``fused`` then means the image cues' fusion (``image``).
+
+Feeds docs/benchmarks.md, "Image cues" (the rendered clips' tables and the cost per particle).
 """
 
 from __future__ import annotations
@@ -72,8 +74,8 @@ def observations(root: Path, clip: str, cameras, frames: int):
     """(frame numbers, observations, ground truth, body model) of the first ``frames`` frames."""
     from voxelmocap.grid import VoxelGrid
     from voxelmocap.io.humaneva import Dataset
+    from voxelmocap.run.bodies import body_model_for
     from voxelmocap.run.measurement import MeasurementRunner
-    from voxelmocap.run.pipeline import body_model_for
 
     subject, sequence = clip.split("/")
     # every camera set is carved on the grid of the full rig (one camera alone sees no
@@ -101,7 +103,8 @@ def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="gr
     filter's search (``joint`` or ``hierarchical``); ``overrides`` more ``with_overrides`` keys.
     """
     from voxelmocap.evaluation import evaluate_sequence
-    from voxelmocap.pose.tracker import BodyTracker, ground_truth_landmarks
+    from voxelmocap.pose.starts import ground_truth_landmarks
+    from voxelmocap.pose.tracker import BodyTracker
 
     config = with_overrides(TrackConfig(), **{"filter.layers": layers,
                                               "filter.particles": particles,
@@ -125,7 +128,7 @@ def track(numbers, obs, gt, model, weights, *, layers, particles, seed, init="gr
 def costs(obs, gt, model, numbers, n_particles=300, repeats=7):
     """µs per particle of each cue alone on the same particles of the first frame."""
     from voxelmocap.body import fit_to_landmarks
-    from voxelmocap.pose.tracker import ground_truth_landmarks
+    from voxelmocap.pose.starts import ground_truth_landmarks
     from voxelmocap.score.cues import CUES, CueSet
     from voxelmocap.score.cues.terms import Views
 

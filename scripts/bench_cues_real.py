@@ -14,6 +14,8 @@ JSON line per setting is appended to ``--json``: mean / median error, share with
     python scripts/bench_cues_real.py --out /tmp/cues_real --layers 4 --particles 150 \\
         --settings voxel,fused4,roi,edges,dt,blob3d,skin,uniform,voxel_hier --json real.jsonl
     python scripts/bench_cues_real.py --table real.jsonl
+
+Feeds docs/benchmarks.md, "Image cues" (the Pose2Sim demo's table).
 """
 
 from __future__ import annotations
@@ -78,6 +80,7 @@ class _Costs:
 def run(demo, out, name, *, layers, particles, seed, frames, replay, hier=None):
     """Track the demo with one setting; (µs per particle, evaluations per frame, wall s).
     ``hier``: more config overrides for a hierarchical setting."""
+    import voxelmocap.run.measurement as measurement
     import voxelmocap.run.pipeline as pipeline
     from voxelmocap.config import CuesConfig, TrackConfig, with_overrides
 
@@ -91,7 +94,8 @@ def run(demo, out, name, *, layers, particles, seed, frames, replay, hier=None):
                                               **((hier or {}) if search == "hierarchical"
                                                  else {})})
     config = dataclasses.replace(config, cues=CuesConfig(weights=dict(SETTINGS[name])))
-    real_runner = pipeline.MeasurementRunner
+    # the frame loop builds its runner through voxelmocap.run.measurement.MeasurementRunner
+    real_runner = measurement.MeasurementRunner
 
     def runner(seq, cfg, log=None, **options):
         if "r" not in replay:
@@ -99,13 +103,13 @@ def run(demo, out, name, *, layers, particles, seed, frames, replay, hier=None):
         return replay["r"]
 
     costs = _Costs()
-    pipeline.MeasurementRunner = runner
+    measurement.MeasurementRunner = runner
     t0 = time.perf_counter()
     try:
         pipeline.track_sequence(demo, None, None, out, config=config, seed=seed, frames=frames,
                                 progress=False, overwrite=True, recorder=costs)
     finally:
-        pipeline.MeasurementRunner = real_runner
+        measurement.MeasurementRunner = real_runner
     wall = time.perf_counter() - t0
     return (1e6 * costs.seconds / max(costs.evaluations, 1),
             costs.evaluations / max(costs.frames, 1), wall)

@@ -12,6 +12,11 @@ Usage::
     python scripts/bench_no_answer.py --data /tmp/voxelmocap_acc/data --out /tmp/noanswer \\
         [--seeds 3] [--frames 100] [--with-answer | --keep-body] [--clips Walking,Jog]
         [--cameras BW1,BW2,BW3,BW4]
+
+Feeds docs/benchmarks.md, "Accuracy on rendered clips" (with and without the answer, four cameras,
+how the default got here, the ablation) and "Body size"; its runs feed ``ablation_table.py``,
+``bench_smoothing.py``, ``bench_confidence.py``, ``landmark_bias.py``, ``body_size_table.py`` and
+``diagnose_likelihood.py``.
 """
 
 from __future__ import annotations

@@ -39,6 +39,10 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
     python scripts/bench_real.py overlays RUN --out docs/images
     python scripts/bench_real.py oracle-track RUN_MP && python scripts/bench_real.py landmarks RUN_MP
     python scripts/bench_real.py diagnose RUN --every 5 [--mediapipe-masks] [--unseen count] [--refine 400]
+
+Feeds docs/benchmarks.md, "Real recording (Pose2Sim demo)" (``landmarks``), "Silhouettes (Pose2Sim demo)"
+(``silhouettes``) and "Carving" (``carving``: the rules on the demo); ``diagnose`` and
+``oracle-track`` are the diagnostics those sections quote.
 """
 
 from __future__ import annotations
@@ -121,7 +125,7 @@ def silhouettes(args) -> None:
     t0 = time.perf_counter()
     plate_body = None
     if args.plate_from is not None:  # the plate of a pass learnt from an earlier run's body
-        from voxelmocap.run.pipeline import tracked_body
+        from voxelmocap.run.bodies import tracked_body
 
         plate_body = tracked_body(args.plate_from, seq)
     runner = MeasurementRunner(seq, _config(args), log=print, plate_body=plate_body)
@@ -348,9 +352,9 @@ def diagnose(args) -> None:
     from voxelmocap.io.sequence import open_sequence
     from voxelmocap.joints import LANDMARK_NAMES
     from voxelmocap.pose.tracker import BodyTracker
+    from voxelmocap.run.bodies import tracked_body
     from voxelmocap.run.inspection import result_body_model
     from voxelmocap.run.measurement import MeasurementRunner
-    from voxelmocap.run.pipeline import tracked_body
 
     if args.mediapipe_masks:
         _use_mediapipe_masks(args.ref)

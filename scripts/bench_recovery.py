@@ -18,6 +18,8 @@ warm-started from the tracked estimate of the frame before).
 Usage::
 
     python scripts/bench_recovery.py [--absence] [--compare Walking,Jog] [--out /tmp/bench_recovery]
+
+Feeds docs/benchmarks.md, "Recovery".
 """
 
 from __future__ import annotations
@@ -100,8 +102,8 @@ def compare_run(bench: Path, out: Path, action: str, strategy: str, seed: int,
 def proposal_cost(bench: Path, out: Path, action: str, seed: int) -> dict:
     """Median ms of one detector proposal per frame (warm start: the apf run's estimates)."""
     from voxelmocap.body import BodyModel
+    from voxelmocap.pose.filter_setup import noise_profile
     from voxelmocap.pose.recovery import detector_proposal
-    from voxelmocap.pose.tracker import noise_profile
     from voxelmocap.run.measurement import MeasurementRunner
 
     index = [a for _, a, _ in CLIPS].index(action)

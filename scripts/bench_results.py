@@ -11,6 +11,8 @@ whole file after every frame (``write_result`` with the frames so far) — is ti
 run, alternating with the streamed writer run by run, and the ratio is printed.
 
 Usage: ``python scripts/bench_results.py [--frames 3000] [--runs 5] [--dir /tmp]``
+
+Feeds docs/benchmarks.md, "Outputs", "Result writing".
 """
 
 from __future__ import annotations

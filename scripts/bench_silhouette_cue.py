@@ -12,6 +12,8 @@ No external data.
 
 For a before/after comparison run it from two checkouts side by side (the counts it prints must
 be equal: the kernel's output does not depend on how it is computed).
+
+Feeds docs/benchmarks.md, "Image cues" (the silhouette cue's cover kernel).
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ Usage::
 
     python scripts/bench_smoothing.py --data /work/bench/data \\
         --runs /work/bench/final/auto_voxels_4_multi10/seed0 [more runs] [--cutoffs 6,10]
+
+Feeds docs/benchmarks.md, "Outputs", "Smoothing the exports".
 """
 
 from __future__ import annotations

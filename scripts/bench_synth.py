@@ -12,6 +12,8 @@ Measures, in one run:
 3. the sensor model (blur, gain, noise, 8-bit) per image.
 
 Usage: ``python scripts/bench_synth.py [--frames 100] [--repeats 3] [--codec MJPG]``
+
+Feeds docs/benchmarks.md, "Synthetic rendering".
 """
 
 from __future__ import annotations

@@ -7,6 +7,8 @@ and right; the drops in mm, run / file); the last column is the standing height'
 Usage::
 
     python scripts/body_size_table.py --data /work/bench/data RUN/seed0 [RUN2/seed0 …]
+
+Feeds docs/benchmarks.md, "Body size" (the fitted lengths against the body files).
 """
 
 from __future__ import annotations

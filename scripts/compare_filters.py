@@ -22,6 +22,8 @@ Usage::
 
     python scripts/compare_filters.py                      # 15 runs, 10-D, 600 × 3
     python scripts/compare_filters.py --jump 20 --runs 5
+
+Feeds docs/benchmarks.md, "Filters (``voxelmocap.tracking``, Fontmarty's experiment)".
 """
 
 from __future__ import annotations

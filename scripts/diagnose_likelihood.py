@@ -13,6 +13,9 @@ Usage::
 
     python scripts/diagnose_likelihood.py --data DATA --run OUT/with_answer/seed0 \\
         [--every 20] [--do 0.01,0.03,0.1,0.3] [--parts]
+
+Feeds docs/benchmarks.md, "Likelihood" (does the likelihood prefer the truth: the double-occupancy
+table).
 """
 
 from __future__ import annotations
@@ -28,7 +31,8 @@ from voxelmocap.body import fit_to_landmarks
 from voxelmocap.config import TrackConfig
 from voxelmocap.io.humaneva import Dataset
 from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.run.pipeline import MeasurementRunner, body_model_for
+from voxelmocap.run.bodies import body_model_for
+from voxelmocap.run.measurement import MeasurementRunner
 from voxelmocap.score.likelihood import log_likelihood_from_scores, part_scores
 
 

@@ -10,6 +10,9 @@ Usage::
 
 The action of a pair is the ground truth's ``ActionType`` attribute (else the file name's
 ``<Action>_<Trial>``).
+
+Not a benchmark: the stand-alone scorer of ``docs/humaneva_mocap.md`` and the README
+(``tests/io/test_reports.py`` runs it).
 """
 
 from __future__ import annotations

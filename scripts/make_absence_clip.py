@@ -17,6 +17,9 @@ Usage::
 
     python scripts/make_absence_clip.py OUT [--motion PATH.bvh] [--start 2.0] [--frames 100] \\
         [--absent 41:55] [--offset-mm 30000] [--subject S1] [--action Walking]
+
+Feeds docs/benchmarks.md, "Recovery" (the absence clip; ``bench_recovery.py --absence`` makes it when
+missing).
 """
 
 from __future__ import annotations

@@ -4,6 +4,9 @@ C1–C3 extrinsics are HumanEva-I subject S1's, as published by VideoPose3D
 (``common/humaneva_dataset.py``: camera→world quaternion (w, x, y, z) and camera centre in mm;
 quoted in ``../shared/HUMANEVA.md`` §2.3). Everything else (intrinsics, distortion, BW1–BW4 poses)
 is invented but plausible. Run: ``python scripts/make_rig_humaneva_i_like.py``.
+
+Not a benchmark: the rig every rendered-clip benchmark uses; the package ships a copy in
+``voxelmocap/data/rigs/humaneva_i_like/``.
 """
 
 from __future__ import annotations

@@ -9,6 +9,9 @@ Pose2Sim's package ``__init__`` needs installed metadata, so the few functions i
 from its source files and run as they are (no voxelmocap code is used).
 
     python scripts/qca_reference.py /work/p2s/x/Pose2Sim
+
+Not a benchmark: it writes the fixture of ``tests/io/test_qualisys.py`` (needs Pose2Sim's source
+and ``lxml``, which the package does not).
 """
 
 from __future__ import annotations

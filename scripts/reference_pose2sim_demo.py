@@ -30,6 +30,9 @@ Output folder (``--out``)::
 Run (about 1–2 min per camera on one core)::
 
     /work/devvenv/bin/python scripts/reference_pose2sim_demo.py --out /work/p2s_ref
+
+Feeds docs/benchmarks.md, "Real recording (Pose2Sim demo)" and "Silhouettes (Pose2Sim demo)": the
+reference ``REF`` that ``bench_real.py`` scores against.
 """
 
 from __future__ import annotations

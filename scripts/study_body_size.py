@@ -8,6 +8,9 @@ the tracking; ``scripts/bench_no_answer.py --set init.body='"fitted"'`` measures
 Usage::
 
     python scripts/study_body_size.py --data /work/bench/data [--frames 10] [--fit 5]
+
+Feeds docs/benchmarks.md, "Body size" (the forearm's fitted length from ground-truth poses, which is
+why the forearm is not fitted).
 """
 
 from __future__ import annotations

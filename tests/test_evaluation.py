@@ -128,3 +128,93 @@ def test_disabled_estimate_endpoints_are_left_out():
     assert scores.humaneva_error_mm == pytest.approx(40.0)  # head dropped, as error() does
     assert scores.mu_mm == pytest.approx(40.0)  # head left out of μ
     assert scores.mmta_pct == pytest.approx(100.0 * 14 / 15)  # head counts as a miss
+
+
+# ---------------------------------------------------------------- facing and left/right
+def _standing(n=3, seed=0):
+    """Landmarks (n, 15, 3) of a body facing +x (its left towards +y), jittered per frame."""
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    base = {"thorax": (0, 0, 1400), "pelvis": (0, 0, 950), "head": (0, 0, 1700),
+            "l_shoulder": (0, 180, 1400), "l_elbow": (0, 220, 1120), "l_wrist": (60, 230, 880),
+            "r_shoulder": (0, -180, 1400), "r_elbow": (0, -220, 1120), "r_wrist": (60, -230, 880),
+            "l_hip": (0, 100, 950), "l_knee": (40, 110, 500), "l_ankle": (0, 110, 80),
+            "r_hip": (0, -100, 950), "r_knee": (40, -110, 500), "r_ankle": (0, -110, 80)}
+    pts = np.array([base[name] for name in LANDMARK_NAMES], dtype=float)
+    rng = np.random.default_rng(seed)
+    return pts[None] + rng.normal(0.0, 3.0, (n, 15, 3)) * [1, 1, 0]
+
+
+def _turn(pts, degrees):
+    a = np.deg2rad(degrees)
+    rot = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    return pts @ rot.T
+
+
+def test_hip_axis_angle_of_a_turned_body_is_the_turn():
+    from voxelmocap.evaluation import hip_axis_angle
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    gt = _standing(4)
+    for degrees in (0.0, 30.0, -90.0, 135.0, 180.0):
+        # turned about any vertical, moved and raised: only the floor-plane direction counts
+        est = _turn(gt, degrees) + [500.0, -300.0, 40.0]
+        np.testing.assert_allclose(hip_axis_angle(est, gt), degrees, atol=1e-9)
+    assert hip_axis_angle(gt, _turn(gt, 60.0)) == pytest.approx([-60.0] * 4)
+    # left and right hips swapped: facing backwards
+    swap = gt.copy()
+    li, ri = LANDMARK_NAMES.index("l_hip"), LANDMARK_NAMES.index("r_hip")
+    swap[:, [li, ri]] = gt[:, [ri, li]]
+    np.testing.assert_allclose(np.abs(hip_axis_angle(swap, gt)), 180.0, atol=1e-9)
+    # hips one above the other: no floor direction
+    flat = gt.copy()
+    flat[0, ri, :2] = flat[0, li, :2]
+    assert np.isnan(hip_axis_angle(flat, gt)[0]) and not np.isnan(hip_axis_angle(flat, gt)[1:]).any()
+    with pytest.raises(ValueError):
+        hip_axis_angle(gt[:, :14], gt[:, :14])
+
+
+def test_left_right_correct_hand_cases():
+    from voxelmocap.evaluation import LIMB_PAIRS, left_right_correct
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    idx = {name: i for i, name in enumerate(LANDMARK_NAMES)}
+    gt = _standing(5, seed=1)
+    keys = [f"{a}/{b}" for a, b in LIMB_PAIRS]
+    # 60 mm off everywhere is still the right side (the limbs are ≥ 160 mm apart)
+    assert left_right_correct(gt + [0.0, 0.0, 60.0], gt) == dict.fromkeys(keys, True)
+    # the wrists exchanged: only that pair is wrong
+    est = gt.copy()
+    est[:, [idx["l_wrist"], idx["r_wrist"]]] = gt[:, [idx["r_wrist"], idx["l_wrist"]]]
+    got = left_right_correct(est, gt)
+    assert list(got) == keys and got == {**dict.fromkeys(keys, True), "l_wrist/r_wrist": False}
+    # both knees on the true left knee: the right one is wrong, so the pair is
+    est = gt.copy()
+    est[:, idx["r_knee"]] = gt[:, idx["l_knee"]]
+    assert left_right_correct(est, gt)["l_knee/r_knee"] is False
+    # a whole body turned round (a mirrored start): every pair wrong
+    assert not any(left_right_correct(_turn(gt, 180.0), gt).values())
+    # averaged over frames: one swapped frame of five does not flip the verdict, three do
+    est = gt.copy()
+    est[:1, [idx["l_ankle"], idx["r_ankle"]]] = gt[:1, [idx["r_ankle"], idx["l_ankle"]]]
+    assert left_right_correct(est, gt)["l_ankle/r_ankle"] is True
+    est[:3, [idx["l_ankle"], idx["r_ankle"]]] = gt[:3, [idx["r_ankle"], idx["l_ankle"]]]
+    assert left_right_correct(est, gt)["l_ankle/r_ankle"] is False
+    # frames with NaN left out; nothing left is not right
+    est = gt.copy()
+    est[:4] = np.nan
+    assert left_right_correct(est, gt) == dict.fromkeys(keys, True)
+    est[4] = np.nan
+    assert left_right_correct(est, gt) == dict.fromkeys(keys, False)
+    # another choice of pairs
+    assert left_right_correct(gt, gt, pairs=[("l_hip", "r_hip")]) == {"l_hip/r_hip": True}
+
+
+def test_first_lasting_frame():
+    from voxelmocap.evaluation import first_lasting_frame
+
+    assert first_lasting_frame([False, False, True, False, True, True]) == 4
+    assert first_lasting_frame([True, True, True]) == 0
+    assert first_lasting_frame([True, True, False]) is None
+    assert first_lasting_frame([]) is None
+    assert first_lasting_frame(np.abs(np.array([170.0, 90.0, 44.0, 46.0, 30.0, 10.0])) <= 45) == 4

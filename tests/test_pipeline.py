@@ -6,9 +6,10 @@ import pytest
 from voxelmocap.cli import main
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
+from voxelmocap.frames import parse_frame_range
 from voxelmocap.io.reports import evaluate_files
 from voxelmocap.io.results import read_result
-from voxelmocap.run.pipeline import parse_frame_range, track_sequence
+from voxelmocap.run.pipeline import track_sequence
 
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150})
 
@@ -273,10 +274,11 @@ def test_a_second_track_on_the_same_result_is_refused(walk_dataset, tmp_path, ca
 def test_first_frame_compilation_is_announced(walk_dataset, tmp_path, monkeypatch):
     import types
 
-    from voxelmocap import _raster_kernels, pipeline
+    from voxelmocap.run import frame_loop, outputs
+    from voxelmocap.score import _raster_kernels
 
     messages = []
-    monkeypatch.setattr(pipeline, "_kernels_cached", lambda: False)
+    monkeypatch.setattr(frame_loop, "kernels_cached", lambda: False)
     track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "run", frames="1:1",
                    config=with_overrides(SMALL, **{"filter.layers": 1, "filter.particles": 20}),
                    progress=False, log=messages.append)
@@ -284,22 +286,24 @@ def test_first_frame_compilation_is_announced(walk_dataset, tmp_path, monkeypatc
     initialised = [i for i, m in enumerate(messages) if m.startswith("initialised from")]
     assert len(compiling) == 1 and compiling[0] < initialised[0]  # once, before the first frame
     monkeypatch.undo()
-    # the check itself: compiled here or cached on disk → quiet; neither → announce
-    index = tmp_path / "kernel.nbi"
+    # the check itself: compiled here or cached on disk beside the module → quiet; neither →
+    # announce (numba names its index <module>.<function>-<line>.<python>.nbi)
+    monkeypatch.setattr(_raster_kernels, "__file__", str(tmp_path / "_raster_kernels.py"))
+    import numba
 
-    def kernel(signatures):
-        cache = types.SimpleNamespace(_cache_file=types.SimpleNamespace(_index_path=str(index)))
-        return types.SimpleNamespace(signatures=signatures, _cache=cache)
-
-    monkeypatch.setattr(_raster_kernels, "part_counts", kernel([]))
-    assert not pipeline._kernels_cached()
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")
+    monkeypatch.setattr(_raster_kernels, "part_counts", types.SimpleNamespace(signatures=[]))
+    assert not outputs.kernels_cached()
+    index = tmp_path / "__pycache__" / "_raster_kernels.part_counts-483.py311.nbi"
+    index.parent.mkdir()
     index.write_bytes(b"")
-    assert pipeline._kernels_cached()
+    assert outputs.kernels_cached()
     index.unlink()
-    monkeypatch.setattr(_raster_kernels, "part_counts", kernel(["(float64[:],)"]))
-    assert pipeline._kernels_cached()
+    monkeypatch.setattr(_raster_kernels, "part_counts",
+                        types.SimpleNamespace(signatures=["(float64[:],)"]))
+    assert outputs.kernels_cached()
     monkeypatch.setattr(_raster_kernels, "part_counts", object())  # numba changed: stay quiet
-    assert pipeline._kernels_cached()
+    assert outputs.kernels_cached()
 
 
 def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_answer, tmp_path,
@@ -336,7 +340,8 @@ def test_multistart_keeps_the_likeliest_start(walk_without_answer, tmp_path):
     # Unit level: each start is an independent tracker; the kept one is the likeliest and its
     # records equal a lone tracker started from the same pose with the same random stream.
     from voxelmocap.grid import VoxelGrid
-    from voxelmocap.pose.tracker import BodyTracker, MultiStart
+    from voxelmocap.pose.multistart import MultiStart
+    from voxelmocap.pose.tracker import BodyTracker
     from voxelmocap.score.likelihood import Measurement, rasterise
 
     model = BodyModel()

@@ -33,9 +33,9 @@ def test_the_plate_from_the_true_body_is_the_empty_scene(walk_dataset, no_plate)
     (its background videos, removed from the tracked copy) wherever the walk uncovered it."""
     from voxelmocap.body.fit import fit_to_landmarks
     from voxelmocap.pose.body_cover import TrackedBody
-    from voxelmocap.pose.tracker import ground_truth_landmarks
+    from voxelmocap.pose.starts import ground_truth_landmarks
+    from voxelmocap.run.bodies import body_model_for
     from voxelmocap.run.measurement import MeasurementRunner
-    from voxelmocap.run.pipeline import body_model_for
 
     data, _ = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -70,8 +70,8 @@ def test_pixels_the_body_left_free_too_rarely_are_unknown(no_plate):
     import cv2
 
     from voxelmocap.pose.body_cover import TrackedBody, plate_covers_of
+    from voxelmocap.run.bodies import tracked_body
     from voxelmocap.run.measurement import MeasurementRunner
-    from voxelmocap.run.pipeline import tracked_body
 
     data, run = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -99,7 +99,7 @@ def test_pixels_the_body_left_free_too_rarely_are_unknown(no_plate):
 
 
 def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
-    from voxelmocap.run.pipeline import tracked_body
+    from voxelmocap.run.bodies import tracked_body
 
     data, run = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -135,7 +135,7 @@ def test_tracked_body_refuses_another_sequence_and_too_few_frames(no_plate, tmp_
     import h5py
 
     from voxelmocap.errors import InputError
-    from voxelmocap.run.pipeline import tracked_body
+    from voxelmocap.run.bodies import tracked_body
 
     data, run = no_plate
     seq = Dataset(data).sequence("S1", "Walking_1")
@@ -156,7 +156,7 @@ def test_tracked_body_refuses_another_sequence_and_too_few_frames(no_plate, tmp_
 def test_tracked_body_measured_on_the_ground_truth_is_that_body(no_plate, tmp_path):
     """Without a body file the first run measured its body on the ground truth (and recorded no
     dimensions): the cover is drawn with that body, not the average adult."""
-    from voxelmocap.run.pipeline import body_model_for, tracked_body
+    from voxelmocap.run.bodies import body_model_for, tracked_body
 
     data, run = no_plate
     bare = tmp_path / "bare"
@@ -396,13 +396,9 @@ def test_a_continued_pass_resumes_where_it_was_interrupted(no_answer_run, tmp_pa
 def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monkeypatch):
     """Pass 2 saw the person too rarely: the last pass tracks as pass 2 did (plate from pass
     1's body, start searched from the voxels), not continuing pass 1."""
-    import voxelmocap.run.pipeline as pipeline
-
     data, _, _ = no_answer_run
     out = tmp_path / "run"
-    real = pipeline._frames_with_person
-    monkeypatch.setattr(pipeline, "_frames_with_person",
-                        lambda path: 3 if path.parent.name == "pass2" else real(path))
+    _saw_too_few(monkeypatch, lambda run: run.folder == "pass2")
     assert main(_args(data, "--out", str(out))) == 0
     second = read_result(out / "S1" / "pass2" / "Walking_1.h5")
     final = read_result(out / "S1" / "Walking_1.h5")
@@ -417,25 +413,49 @@ def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monk
                                              (0, [False, False, False, False])])
 def test_which_passes_continue_the_previous_one(first, expected):
     """``[init] previous_pass_start``: pass k continues from this one on (0: never); the first
-    pass has no previous pass to continue."""
-    from voxelmocap.run.pipeline import _continues
+    pass has no previous pass to continue; every later pass learns its plate from the previous
+    pass's body."""
+    import types
 
-    config = with_overrides(TrackConfig(), **{"init.previous_pass_start": first})
-    got = [_continues(config, k) for k in (1, 2, 3, 4)]
-    assert got == expected
+    from voxelmocap.run.plan import plan_passes
+
+    config = with_overrides(TrackConfig(), **{"init.previous_pass_start": first,
+                                              "measurement.silhouette.plate_passes": 4})
+    no_videos = types.SimpleNamespace(camera_names=["C1", "C2"], background_paths=lambda c: [])
+    plan = plan_passes(no_videos, config, n_frames=20)
+    assert [p.continues for p in plan.passes] == expected
+    assert [p.plate for p in plan.passes] == ["carving", "previous", "previous", "previous"]
+    assert [p.folder for p in plan.passes] == ["pass1", "pass2", "pass3", ""]
+    # the plan is what the log says at the start
+    assert plan.describe()[0].startswith("4 tracking passes")
+    assert len(plan.describe()) == 5
+
+
+def _saw_too_few(monkeypatch, which):
+    """Make the passes ``which(run)`` selects report 3 frames with the person (as if the person
+    had been out of view): the run's rule for a pass that gives no body then applies."""
+    from voxelmocap.run import frame_loop
+
+    real = frame_loop.PassRun.run
+
+    def run(self, *args, **kwargs):
+        outcome = real(self, *args, **kwargs)
+        if which(self):
+            outcome.frames_with_person = 3
+        return outcome
+
+    monkeypatch.setattr(frame_loop.PassRun, "run", run)
 
 
 def test_a_pass_that_saw_the_person_too_rarely_is_repeated(long_walk, tmp_path, capsys,
                                                           monkeypatch):
     """A first pass with the person in fewer than MIN_BODY_FRAMES frames gives no plate from
     its body: the last pass tracks as the first did, and says why."""
-    import voxelmocap.run.pipeline as pipeline
-
     data, run = long_walk
     out = tmp_path / "run"
     shutil.copytree(run, out)
     (out / "S1" / "Walking_1.h5").unlink()       # pass 1 kept (read again), the last re-run
-    monkeypatch.setattr(pipeline, "_frames_with_person", lambda path: 3)
+    _saw_too_few(monkeypatch, lambda run: True)
     assert main(_args(data, "--out", str(out), "--resume")) == 0
     assert "saw the person in 3 frame(s)" in capsys.readouterr().out
     final = read_result(out / "S1" / "Walking_1.h5")
@@ -460,8 +480,8 @@ def test_dump_measures_with_the_plate_from_a_run(no_plate, tmp_path):
     the run recorded in the dump; a pass folder holding the result directly is accepted."""
     from voxelmocap.io.voxels import VoxelDump
     from voxelmocap.pose.body_cover import TrackedBody
+    from voxelmocap.run.bodies import tracked_body
     from voxelmocap.run.measurement import MeasurementRunner
-    from voxelmocap.run.pipeline import tracked_body
 
     data, run = no_plate
     folder = tmp_path / "pass1"

@@ -200,7 +200,7 @@ def test_absent_frames_are_flagged_and_the_track_restarts(monkeypatch):
     tracker = BodyTracker(MODEL, TINY, seed=0)
     tracker.initialise(frames[0], MODEL.landmarks(states[:1])[0], frame=1)
     restarted = []
-    from voxelmocap import initialise
+    from voxelmocap.pose import initialise
 
     real = initialise.initial_pose
 
@@ -227,9 +227,9 @@ def test_absent_frames_are_flagged_and_the_track_restarts(monkeypatch):
 
 # ---------------------------------------------------------------------------- end to end
 def test_track_strategy_iapf_runs_from_the_command_line(walk_dataset, tmp_path, monkeypatch):
-    from voxelmocap import recovery
     from voxelmocap.cli import main
     from voxelmocap.io.results import read_result
+    from voxelmocap.pose import recovery
 
     calls = []
     real = recovery.detector_proposal

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from voxelmocap.errors import InputError
+from voxelmocap.evaluation import best_cell
 from voxelmocap.io.body_pose_xml import read_body_pose_xml
 from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.evaluation import best_cell
 from voxelmocap.run.sweep import SweepCell, plan_cells, run_sweep
 from voxelmocap.viz.plots import plot_sweep_heatmaps
 

@@ -9,12 +9,9 @@ from voxelmocap.body import BodyModel
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.pose.tracker import (
-    BodyTracker,
-    Collector,
-    build_dynamics,
-    noise_profile,
-)
+from voxelmocap.pose.filter_setup import build_dynamics, noise_profile
+from voxelmocap.pose.records import Collector
+from voxelmocap.pose.tracker import BodyTracker
 from voxelmocap.score.likelihood import Measurement, log_likelihood, part_scores, rasterise
 from voxelmocap.tracking import RandomWalk, TwoStateElbow, VelocityModel
 
@@ -68,7 +65,7 @@ def test_record_describes_the_estimate(walk):
 def test_tracker_equals_the_filter_it_assembles(walk):
     """The tracker adds nothing to the filter's numbers: same seed, same estimates."""
     from voxelmocap.body import fit_to_landmarks
-    from voxelmocap.pose.tracker import build_filter
+    from voxelmocap.pose.filter_setup import build_filter
 
     states, obs = walk
     gt = MODEL.landmarks(states[:1])[0]
@@ -168,7 +165,7 @@ def test_every_filter_option_reaches_the_filter_from_toml():
     import dataclasses
 
     from voxelmocap.config import config_from_toml
-    from voxelmocap.pose.tracker import build_filter
+    from voxelmocap.pose.filter_setup import build_filter
 
     text = """
     [filter]
@@ -443,7 +440,7 @@ def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
 def test_the_start_is_scored_without_the_coverage_term(walk, monkeypatch):
     """initial_state (voxel start, extremity hypotheses, limb sweep) never evaluates the
     coverage term; the tracking callables afterwards do."""
-    from voxelmocap import likelihood
+    from voxelmocap.score import likelihood
 
     _, obs = walk
     cfg = with_overrides(TrackConfig(), **{"likelihood.coverage": 250.0,

@@ -335,6 +335,13 @@ class FilterConfig(Section):
                                       "to a power of two)", ge=2)
     limb_swaps: bool = setting(False, "the limb searches first try each pair of limbs exchanged "
                                "(legs crossed onto each other's voxels)")
+    facing_check_every: int = setting(0, "every this many frames, check the estimate against its "
+                                      "turned-round twin and turn the track round when the twin "
+                                      "wins (0 = never)", unit="frames", ge=0)
+    facing_margin: float = setting(2.0, "what the twin must win by (likelihood + `facing_weight` × "
+                                   "evidence)", unit="log-likelihood", ge=0)
+    facing_weight: float = setting(0.0, "weight of the facing evidence in the facing check and the "
+                                   "multi-start's choice", unit="log-likelihood per unit", ge=0)
 
     _rules: typing.ClassVar[tuple[Rule, ...]] = (
         Rule(("layers", "particles", "strategy", "survival", "noise_decay", "betas", "alphas",
@@ -376,6 +383,9 @@ class InitConfig(Section):
     previous_pass_start: int = setting(
         3, "a plate learnt in passes: from this pass on, start from the previous pass's body and "
         "first pose (0: never)", ge=0, says="0 (never) or >= 2")
+
+    start_turned: bool = setting(False, "test hook: start from the best start alone, turned round, "
+                                 "to check that the facing check turns it back")
 
     _rules: typing.ClassVar[tuple[Rule, ...]] = (also("previous_pass_start", lambda k: k != 1),)
 

@@ -10,6 +10,10 @@
   tracker flagged without a person, ``voxelmocap.pose.recovery``).
 * :func:`evaluate_points`: the same errors against any named 3-D reference (a TRC or CSV mapped
   onto some of the landmarks), with missing reference values left out.
+* :func:`hip_axis_angle`: the angle in the floor plane between the estimated and true
+  left-hip→right-hip vectors (the body's facing error); :func:`left_right_correct`: whether the
+  left and right of each limb pair are the right way round; :func:`first_lasting_frame`: from
+  which frame a condition holds to the end (a turned start turned round).
 """
 
 from __future__ import annotations
@@ -19,17 +23,21 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .joints import LANDMARK_ENDPOINTS, endpoints_to_landmarks
+from .joints import LANDMARK_ENDPOINTS, LANDMARK_NAMES, endpoints_to_landmarks
 
 __all__ = [
+    "LIMB_PAIRS",
     "PointScores",
     "SequenceScores",
     "best_cell",
     "evaluate_points",
     "evaluate_sequence",
+    "first_lasting_frame",
+    "hip_axis_angle",
     "humaneva_error",
     "humaneva_error_position_average",
     "landmark_errors",
+    "left_right_correct",
     "mmta_mmtp",
 ]
 
@@ -347,3 +355,105 @@ def best_cell(mmta: np.ndarray, layers, particles, *, tolerance: float = 0.0):
                   if not np.isnan(mmta[i, j]) and mmta[i, j] >= best - tolerance]
     _, _, i, j = min(candidates)
     return i, j
+
+
+_L = {name: i for i, name in enumerate(LANDMARK_NAMES)}
+
+#: Left/right landmark pairs of the limbs tested by :func:`left_right_correct`.
+LIMB_PAIRS: tuple[tuple[str, str], ...] = (
+    ("l_elbow", "r_elbow"), ("l_wrist", "r_wrist"), ("l_knee", "r_knee"), ("l_ankle", "r_ankle"),
+)
+
+
+def hip_axis_angle(est, gt) -> np.ndarray:
+    """Signed angle in the floor plane from the true hip axis to the estimated one.
+
+    The hip axis is the vector from the left hip to the right hip, projected on the floor
+    (x, y; Z up). A body facing the right way has an angle near 0; one turned round, near ±180.
+
+    Parameters
+    ----------
+    est, gt : (F, 15, 3) array_like
+        Estimated and true landmarks (mm), :data:`voxelmocap.joints.LANDMARK_NAMES` order.
+
+    Returns
+    -------
+    (F,) ndarray
+        Degrees in (−180, 180], counter-clockwise seen from above positive; NaN where either
+        axis has no horizontal extent (hips one above the other) or is NaN.
+    """
+    est = np.asarray(est, dtype=float)
+    gt = np.asarray(gt, dtype=float)
+    if est.shape != gt.shape or est.ndim != 3 or est.shape[1:] != (15, 3):
+        raise ValueError(f"landmarks must both be (F, 15, 3), got {est.shape} and {gt.shape}")
+    a = gt[:, _L["r_hip"], :2] - gt[:, _L["l_hip"], :2]
+    b = est[:, _L["r_hip"], :2] - est[:, _L["l_hip"], :2]
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    dot = np.einsum("ij,ij->i", a, b)
+    angle = np.degrees(np.arctan2(cross, dot))
+    angle[angle == -180.0] = 180.0
+    flat = (np.linalg.norm(a, axis=1) == 0) | (np.linalg.norm(b, axis=1) == 0)
+    angle[flat] = np.nan
+    return angle
+
+
+def left_right_correct(est, gt, pairs=LIMB_PAIRS) -> dict[str, bool]:
+    """Whether each limb pair's left and right are the right way round over some frames.
+
+    A pair (left ``L``, right ``R``) is right when, averaged over the frames, the estimated
+    ``L`` is nearer the true ``L`` than the true ``R``, *and* the estimated ``R`` nearer the true
+    ``R`` than the true ``L``. So a swapped pair fails, and so does a pair whose two estimates
+    both sit on one true limb.
+
+    Parameters
+    ----------
+    est, gt : (F, 15, 3) array_like
+        Estimated and true landmarks (mm) of the same frames (F ≥ 1), in
+        :data:`voxelmocap.joints.LANDMARK_NAMES` order. Frames with a NaN in either are left out.
+    pairs : sequence of (str, str)
+        Left and right landmark names (default :data:`LIMB_PAIRS`: elbows, wrists, knees,
+        ankles).
+
+    Returns
+    -------
+    dict
+        ``{"l_elbow/r_elbow": bool, ...}`` in the order of ``pairs`` (False when no frame is
+        left).
+    """
+    est = np.asarray(est, dtype=float)
+    gt = np.asarray(gt, dtype=float)
+    if est.shape != gt.shape or est.ndim != 3 or est.shape[1:] != (15, 3):
+        raise ValueError(f"landmarks must both be (F, 15, 3), got {est.shape} and {gt.shape}")
+    out = {}
+    for left, right in pairs:
+        i, j = _L[left], _L[right]
+        e, g = est[:, [i, j]], gt[:, [i, j]]
+        keep = ~(np.isnan(e).any(axis=(1, 2)) | np.isnan(g).any(axis=(1, 2)))
+        if not keep.any():
+            out[f"{left}/{right}"] = False
+            continue
+        e, g = e[keep], g[keep]
+        # d[a, b]: mean distance of estimated side a from true side b (0 left, 1 right)
+        d = np.linalg.norm(e[:, :, None, :] - g[:, None, :, :], axis=-1).mean(axis=0)
+        out[f"{left}/{right}"] = bool(d[0, 0] < d[0, 1] and d[1, 1] < d[1, 0])
+    return out
+
+
+def first_lasting_frame(ok) -> int | None:
+    """Index of the first element from which ``ok`` holds to the end, or None if the last fails.
+
+    Parameters
+    ----------
+    ok : (F,) array_like of bool
+        A condition per frame (e.g. ``abs(hip_axis_angle(...)) <= 45``).
+
+    Returns
+    -------
+    int or None
+        ``k`` such that ``ok[k:]`` are all True and ``k == 0`` or ``ok[k − 1]`` is False.
+    """
+    ok = np.asarray(ok, dtype=bool).ravel()
+    if not len(ok) or not ok[-1]:
+        return None
+    bad = np.flatnonzero(~ok)
+    return int(bad[-1] + 1) if len(bad) else 0

@@ -9,7 +9,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["parse_frame_range"]
+__all__ = ["parse_frame_range", "spread", "spread_indices"]
 
 
 def parse_frame_range(text: str | None, available: np.ndarray) -> np.ndarray:
@@ -50,3 +50,20 @@ def parse_frame_range(text: str | None, available: np.ndarray) -> np.ndarray:
         raise InputError("--frames", f"frame {outside[0]} is outside the available frames "
                                      f"{lo_avail}..{hi_avail}")
     return frames
+
+
+def spread_indices(n: int, count: int) -> np.ndarray:
+    """Indices of at most ``count`` of ``n`` items spread evenly from the first to the last
+    (all of them when ``n <= count``), increasing.
+
+    >>> spread_indices(10, 4).tolist(), spread_indices(3, 5).tolist()
+    ([0, 3, 6, 9], [0, 1, 2])
+    """
+    return np.unique(np.linspace(0, n - 1, min(n, count)).round().astype(int))
+
+
+def spread(numbers, count: int) -> np.ndarray:
+    """At most ``count`` of ``numbers`` (e.g. frame numbers) spread evenly from the first to the
+    last (:func:`spread_indices`)."""
+    numbers = np.asarray(numbers)
+    return numbers[spread_indices(len(numbers), count)]

@@ -205,8 +205,9 @@ def test_silhouette_cue_reduces_large_images():
 def test_hierarchical_search_adds_image_cues_on_whole_states():
     """With the voxel cue at weight 1 and an image cue, the search is hierarchical and each
     partition's callable equals the fused likelihood of the whole states."""
+    from voxelmocap.pose.filter_setup import searches_hierarchically
     from voxelmocap.pose.hierarchy import body_partitions
-    from voxelmocap.pose.tracker import BodyTracker, searches_hierarchically
+    from voxelmocap.pose.tracker import BodyTracker
 
     model = BodyModel()
     x = model.default_state()

@@ -118,7 +118,7 @@ def test_given_masks_place_the_grid_around_the_person(walk_dataset, tmp_path):
 def test_track_with_the_subtraction_s_masks_tracks_as_without(project, tmp_path):
     root, _, _, masks = project
     folder = _write(tmp_path / "masks", masks)
-    from voxelmocap.run.passes import masks_defaults
+    from voxelmocap.run.plan import masks_defaults
 
     # the cues and gate that masks select, given to both runs (the masks then change nothing)
     config = masks_defaults(SAME_STAGE, cues_given=False)[0]
@@ -166,7 +166,7 @@ def test_bad_masks_name_the_file(project, tmp_path, capsys, damage, message):
 
 
 def test_masks_defaults_choose_the_silhouette_cue_and_open_the_gate():
-    from voxelmocap.run.passes import MASKS_CUES, MASKS_MAX_HULL, masks_defaults
+    from voxelmocap.run.plan import MASKS_CUES, MASKS_MAX_HULL, masks_defaults
 
     config, message = masks_defaults(TrackConfig(), cues_given=False)
     assert config.cues.weights == MASKS_CUES

@@ -299,3 +299,25 @@ def test_move_estimate_shifts_every_particle_by_the_same_offset_within_bounds():
     f.move_estimate(est + [0.5, 0.0])
     np.testing.assert_allclose(f.particles, np.clip(before + [0.5, 0.0], -1, 1))
     np.testing.assert_allclose(f.estimate, est + [0.5, 0.0])
+
+
+def test_a_move_that_is_no_motion_leaves_no_velocity():
+    """``keep_motion=False``: the estimates before the move are forgotten, so a velocity model
+    predicts no motion across it (with the default the jump would count as velocity)."""
+    from voxelmocap.tracking import VelocityModel
+
+    def run(keep):
+        f = AnnealedParticleFilter(50, 1, -5 * np.ones(2), 5 * np.ones(2), 0.1, rng=0,
+                                   dynamics=VelocityModel(factor=1.0))
+        f.initialise(np.zeros(2), 0.2)
+        for _ in range(3):
+            f.step(lambda x: -np.sum(x ** 2, axis=1))
+        f.move_estimate(f.estimate + [3.0, 0.0], keep_motion=keep)
+        return f.history
+
+    kept, forgotten = run(True), run(False)
+    assert len(kept) >= 2 and len(forgotten) == 1
+    np.testing.assert_array_equal(forgotten[0], kept[-1])
+    drift = VelocityModel(factor=1.0).drift
+    np.testing.assert_array_equal(drift(np.zeros((1, 2)), forgotten), np.zeros((1, 2)))
+    assert drift(np.zeros((1, 2)), kept)[0, 0] > 2.0

@@ -61,7 +61,7 @@ def _tracked_run(root):
 
     from voxelmocap.io.humaneva import Dataset
     from voxelmocap.io.results import TrackResult, write_result
-    from voxelmocap.run.pipeline import body_model_for
+    from voxelmocap.run.bodies import body_model_for
 
     data = make_tiny_dataset(root / "data", n_frames=5)
     seq = Dataset(data).sequence("S1", "Walking_1")

@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     plate_body = None
     if args.plate_from:
         from ..io.sequence import open_sequence
-        from ..run.pipeline import tracked_body
+        from ..run.bodies import tracked_body
 
         seq = open_sequence(args.dataset, args.subject, args.sequence, cameras=cameras)
         plate_body = tracked_body(args.plate_from, seq, seq.ground_truth())

@@ -39,6 +39,10 @@ def add_parser(subparsers) -> None:
                         help="sensor noise and flicker scale; 1 = σ 2 grey levels (default 1)")
     parser.add_argument("--start", type=float, default=0.0,
                         help="start time in the BVH clip, seconds (default 0)")
+    parser.add_argument("--heading", type=float, default=0.0, metavar="DEG",
+                        help="turn the motion by DEG degrees about the vertical through the "
+                             "pelvis at frame 1, counter-clockwise seen from above, before "
+                             "rendering; the ground truth is the turned motion's (default 0)")
     parser.add_argument("--unit", default="auto",
                         help="BVH length unit: auto, mm, cm, m, inch, cmu or mm per unit")
     parser.add_argument("--codec", default="MJPG", choices=["MJPG", "FFV1", "XVID", "HFYU"],
@@ -69,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
                         action=args.action, trial=args.trial, rig=args.rig, fps=args.fps,
                         seed=args.seed, noise=args.noise, cameras=cameras,
                         progress=not args.no_progress, render_masks=args.masks,
-                        codec=args.codec, start=args.start, unit=unit, overwrite=args.overwrite)
+                        codec=args.codec, start=args.start, unit=unit, overwrite=args.overwrite,
+                        heading_deg=args.heading)
     except OSError as exc:  # e.g. the disk filled up or the folder turned read-only mid-way
         raise InputError(args.out, f"cannot write the data set ({exc.strerror or exc})") from None
     logger.info("wrote %s", root)

@@ -423,7 +423,7 @@ class ResultWriter:
         ----------
         record : object
             Attributes named like :data:`PER_FRAME` (``frame`` for ``frames``), e.g. a
-            :class:`voxelmocap.pose.tracker.FrameRecord`.
+            :class:`voxelmocap.pose.records.FrameRecord`.
         checkpoint : dict or None
             The filter state after this frame (None: the file then has no checkpoint).
         complete : bool

@@ -32,7 +32,7 @@ from ..errors import InputError
 from ..grid import VoxelGrid
 from .surface import smooth_surface_box, smoothing_box, surface_voxels
 
-__all__ = ["QMAX", "VoxelObservation"]
+__all__ = ["QMAX", "VoxelObservation", "no_voxels"]
 
 #: Quantised value of Ṽ^S = 1.
 QMAX = 65535
@@ -209,3 +209,18 @@ class VoxelObservation:
     def __repr__(self) -> str:
         return (f"VoxelObservation(grid shape {self.grid.shape}, {self.grid.voxel_size:g} mm, "
                 f"{int(self.occupancy.sum())} occupied voxels)")
+
+
+def no_voxels(where, what: str) -> InputError:
+    """The one error of a frame without an occupied voxel where a step needed some.
+
+    Parameters
+    ----------
+    where : str
+        The frame (e.g. ``"frame 12"``).
+    what : str
+        What could not be done, e.g. ``"initialise from the voxels"``.
+    """
+    return InputError(where, f"no occupied voxel: cannot {what} (is the person in view? is the "
+                             "background model right? without background videos it is learnt "
+                             "from the sequence, see the log above)")

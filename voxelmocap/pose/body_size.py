@@ -44,6 +44,7 @@ import numpy as np
 from ..body import BodyModel, retarget
 from ..body.shapes import ANKLE_HEIGHT_SHARE, BodyDimensions
 from ..errors import InputError
+from ..frames import spread_indices
 from ..score.likelihood import (
     DEFAULT_VARIANCES,
     coverage_log_likelihood,
@@ -183,9 +184,7 @@ def dimensions_from_json(text, *, source: str = "body_dimensions") -> BodyDimens
 
 def pick_frames(n_frames: int, n_fit: int) -> np.ndarray:
     """Indices of ``n_fit`` frames spread evenly over ``n_frames`` (all when fewer)."""
-    if n_frames <= n_fit:
-        return np.arange(n_frames)
-    return np.unique(np.round(np.linspace(0, n_frames - 1, n_fit)).astype(int))
+    return spread_indices(n_frames, n_fit)
 
 
 def _bounds():
@@ -435,7 +434,7 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
         The tracker that produced ``records`` (its model is the starting body).
     observations : sequence of VoxelObservation
         The frames' measurements, in order.
-    records : sequence of voxelmocap.pose.tracker.FrameRecord
+    records : sequence of voxelmocap.pose.records.FrameRecord
         The tracker's records of those frames (their ``state`` are the starting poses).
     config : voxelmocap.config.TrackConfig
     seed : int

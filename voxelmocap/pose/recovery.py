@@ -468,7 +468,7 @@ class Recovery:
                                min_share=self.config.min_volume_share)
 
     def step(self, observation, *, frame: int):
-        """One frame with recovery: a :class:`~voxelmocap.pose.tracker.FrameRecord`."""
+        """One frame with recovery: a :class:`~voxelmocap.pose.records.FrameRecord`."""
         import dataclasses
 
         t0 = time.perf_counter()

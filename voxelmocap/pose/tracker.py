@@ -6,15 +6,16 @@
 * the noise profile (:func:`noise_profile`: which state dimension gets which propagation noise);
 * the dynamics, built by name from :data:`voxelmocap.tracking.DYNAMICS` (:func:`build_dynamics`);
 * the filter (:class:`~voxelmocap.tracking.AnnealedParticleFilter`, :func:`build_filter`);
-* the initialisation (fit to a ground-truth pose, or a search around the voxel blob).
+* the initialisation (fit to a ground-truth pose, or a search around the voxel blob:
+  :mod:`voxelmocap.pose.starts`, :mod:`voxelmocap.pose.initialise`).
 
 It knows nothing about files: the runner (:mod:`voxelmocap.run.pipeline`) measures frames and writes
 what :meth:`BodyTracker.step` returns, a :class:`FrameRecord`. Studies and benchmarks call the same
 class, so they measure the product, not a copy of its loop.
 
-Observers, in the spirit of the ``particles`` library's collectors, are callables
-``observer(record, tracker)`` called after every step (:class:`Collector` stacks chosen record
-fields). :meth:`BodyTracker.get_state` / :meth:`BodyTracker.set_state` checkpoint the filter so
+Observers (:mod:`voxelmocap.pose.records`) are callables ``observer(record, tracker)`` called
+after every step. The filter is assembled in :mod:`voxelmocap.pose.filter_setup`.
+:meth:`BodyTracker.get_state` / :meth:`BodyTracker.set_state` checkpoint the filter so
 that a resumed run continues bit-identically.
 
 >>> import numpy as np
@@ -39,306 +40,18 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import FilterConfig, TrackConfig
+from ..config import TrackConfig
 from ..errors import InputError
+from .filter_setup import build_filter, noise_profile
+from .records import FrameRecord, Observer, absent_record
+from .starts import GROUND_TRUTH_START, initial_state_from_voxels
 
-__all__ = [
-    "BodyTracker",
-    "Collector",
-    "FrameRecord",
-    "absent_record",
-    "build_dynamics",
-    "build_filter",
-    "ground_truth_landmarks",
-    "initial_state_from_voxels",
-    "noise_profile",
-]
-
-#: How :meth:`BodyTracker.initial_state` names a start from the ground truth.
-GROUND_TRUTH_START = "the ground truth"
-
-#: Trunk angles that get the root rotation's noise, not the limbs' (see :func:`noise_profile`).
-TRUNK_ANGLES = ("waist_flex", "waist_side", "waist_twist", "neck_flex", "neck_side")
+__all__ = ["BodyTracker"]
 
 
-@dataclass(frozen=True)
-class FrameRecord:
-    """What one tracked frame produced (the estimate is clipped into the model's legal ranges).
-
-    Attributes
-    ----------
-    frame : int
-        Synchronised 1-based frame number.
-    state : (27,) ndarray
-        The estimate: weighted mean of the last annealing layer (mm, rad).
-    map_state : (27,) ndarray
-        The particle of largest last-layer weight (not clipped; it is a particle).
-    landmarks : (15, 3) ndarray
-        Landmarks of ``state`` (mm) in ``voxelmocap.joints.LANDMARK_NAMES`` order.
-    endpoints : (20, 3) ndarray
-        ``body_pose`` endpoints of ``state`` (mm) in ``ENDPOINT_NAMES`` order.
-    part_scores : (n_parts, 4) ndarray
-        Out, DO, Empty, Surf of every part of ``state``.
-    ess, betas : (L,) ndarray
-        Effective sample size and likelihood exponent of each annealing layer.
-    seconds : float
-        Wall time of :meth:`BodyTracker.step` (the runner stores the whole frame's instead,
-        measurement included).
-    log_likelihood : float
-        Log-likelihood of ``state`` under the selected cues (voxel only: from ``part_scores``).
-    likelihood_seconds : float
-        The part of ``seconds`` spent in the filter's likelihood evaluations.
-    landmark_spread : (15,) ndarray
-        Weighted RMS distance (mm) of each landmark over the last layer's particles
-        (:func:`voxelmocap.pose.confidence.landmark_spread`); NaN when unknown.
-    confidence : (15,) ndarray
-        Each landmark's confidence in [0, 1] (:func:`voxelmocap.pose.confidence.landmark_confidence`
-        of the spread and ``part_scores``); NaN when unknown.
-    observed : bool
-        False for a frame without a person (``voxelmocap.pose.recovery``): the filter did not step
-        and the estimate repeats the last one; evaluations skip such frames.
-    note : str
-        What happened besides tracking, e.g. a re-initialisation (empty when nothing did).
-    """
-
-    frame: int
-    state: np.ndarray
-    map_state: np.ndarray
-    landmarks: np.ndarray
-    endpoints: np.ndarray
-    part_scores: np.ndarray
-    ess: np.ndarray
-    betas: np.ndarray
-    seconds: float
-    log_likelihood: float
-    likelihood_seconds: float = 0.0
-    landmark_spread: np.ndarray = field(default_factory=lambda: np.full(15, np.nan))
-    confidence: np.ndarray = field(default_factory=lambda: np.full(15, np.nan))
-    observed: bool = True
-    note: str = ""
-
-
-Observer = Callable[[FrameRecord, "BodyTracker"], None]
-
-
-class Collector:
-    """An observer that keeps chosen fields of every record, e.g. ``Collector("state")``.
-
-    >>> c = Collector("frame", "log_likelihood")
-    >>> c.stacked()["frame"].shape
-    (0,)
-    """
-
-    def __init__(self, *fields: str):
-        unknown = [f for f in fields if f not in FrameRecord.__dataclass_fields__]
-        if unknown:
-            raise ValueError(f"Collector: FrameRecord has no field {unknown[0]!r}")
-        self.fields = fields or tuple(FrameRecord.__dataclass_fields__)
-        self.values: dict[str, list] = {f: [] for f in self.fields}
-
-    def __call__(self, record: FrameRecord, tracker: BodyTracker) -> None:
-        for f in self.fields:
-            self.values[f].append(getattr(record, f))
-
-    def stacked(self) -> dict[str, np.ndarray]:
-        """Each field's values stacked along a new first axis (frames)."""
-        return {f: np.array(v) for f, v in self.values.items()}
-
-
-# ---------------------------------------------------------------------------- assembly
-def noise_profile(model, config: TrackConfig) -> np.ndarray:
-    """(27,) per-frame propagation noise (mm, rad): translation, root rotation and joint groups.
-
-    The root, waist and neck angles get ``rotation_std_rad``; shoulders, elbows, hips and knees
-    ``joint_std_rad``. The trunk moves as slowly as the root, and the pelvis orientation is nearly
-    unobservable (no part spans the pelvis), so a compensating root pitch + waist flexion + hip
-    flexion change costs almost nothing in the likelihood. With the limbs' larger noise on the
-    waist the filter random-walked along that direction (root pitch −40°, waist +44° after 6
-    frames of a walk) and lost the legs. Measured with ``scripts/study_tracking.py`` (synthetic,
-    7 cameras, 6 × 300 particles, ``joint_std_rad`` 0.1): trunk on the limbs' noise → on the
-    root's: walk μ 58 → 59 mm (5 seeds, no change), jog 67 → 60 mm, box 68 → 56 mm (3 seeds);
-    ``docs/benchmarks.md``, tracking accuracy study.
-    """
-    fc = config.filter
-    std = np.full(model.n_dims, fc.joint_std_rad)
-    std[:3] = fc.translation_std_mm
-    std[3:6] = fc.rotation_std_rad
-    names = list(model.state_names)
-    std[[names.index(n) for n in TRUNK_ANGLES]] = fc.rotation_std_rad
-    return std
-
-
-def build_dynamics(model, fc: FilterConfig):
-    """The motion model named by ``fc.dynamics`` (:data:`voxelmocap.tracking.DYNAMICS`).
-
-    The velocity drift applies to every state dimension (heading included: the estimates it is
-    taken from never jump across ±π within a frame or two of a walk).
-    """
-    from ..tracking import DYNAMICS, TwoStateElbow, VelocityModel
-
-    cls = DYNAMICS[fc.dynamics]
-    kwargs = {}
-    if issubclass(cls, VelocityModel):
-        kwargs["factor"] = fc.velocity_factor
-    if issubclass(cls, TwoStateElbow):
-        names = list(model.state_names)
-        kwargs.update(twist_indices=[names.index("l_shoulder_rot"), names.index("r_shoulder_rot")],
-                      elbow_indices=[names.index("l_elbow"), names.index("r_elbow")],
-                      threshold=fc.elbow_threshold_rad, singular_std=fc.elbow_singular_std_rad)
-    return cls(**kwargs)
-
-
-def build_filter(model, config: TrackConfig, rng, *, noise_std=None):
-    """The annealed particle filter of a config, over the body model's legal ranges.
-
-    Parameters
-    ----------
-    model : BodyModel
-    config : TrackConfig
-        ``config.filter`` is used.
-    rng : numpy.random.Generator or int
-        The filter's generator (or its seed).
-    noise_std : (27,) array_like, optional
-        Propagation noise; default :func:`noise_profile`.
-    """
-    from ..tracking import AnnealedParticleFilter
-
-    fc = config.filter
-    noise = noise_profile(model, config) if noise_std is None else noise_std
-    if searches_hierarchically(config):
-        from ..tracking.partitioned import PartitionedParticleFilter
-        from .hierarchy import body_partitions
-
-        opts = fc.filter_options()
-        return PartitionedParticleFilter(
-            body_partitions(fc), model.low, model.high, noise, rng=rng,
-            survival=opts["survival"], noise_decay=opts["noise_decay"],
-            dynamics=build_dynamics(model, fc), resampling=opts["resampling"],
-            beta_max=opts["beta_max"], refine_evaluations=fc.refine_evaluations,
-            explore=fc.limb_explore)
-    return AnnealedParticleFilter(
-        fc.particles, fc.layers, model.low, model.high, noise, strategy=fc.strategy, rng=rng,
-        dynamics=build_dynamics(model, fc), **fc.filter_options())
-
-
-def initial_state_from_voxels(measurement, model, variances, *, n_yaw: int = 36,
-                              coverage: float = 0.0) -> np.ndarray:
-    """A standing pose at the voxel blob's centroid, facing the best of ``n_yaw`` headings.
-
-    Parameters
-    ----------
-    measurement : voxelmocap.score.likelihood.Measurement
-        The first frame.
-    model : BodyModel
-    variances : (4,) sequence of float
-        The likelihood's σ².
-    n_yaw : int
-        Headings tried, evenly spread over the full turn.
-    coverage : float
-        Weight of the likelihood's coverage term.
-
-    Returns
-    -------
-    (27,) ndarray
-
-    Raises
-    ------
-    InputError
-        When the frame has no occupied voxel.
-    """
-    from ..score.likelihood import log_likelihood
-
-    occ = measurement.occupancy
-    idx = np.argwhere(occ)
-    if len(idx) == 0:
-        raise InputError("first frame", "no occupied voxel: cannot initialise from the voxels "
-                                        "(is the person in view? is the background model right? "
-                                        "without background videos it is learnt from the "
-                                        "sequence, see the log above)")
-    centre = measurement.grid.centre_of(idx).mean(axis=0)
-    base = model.default_state()
-    base[0], base[1] = centre[0], centre[1]
-    yaw_i = list(model.state_names).index("root_yaw")
-    candidates = np.repeat(base[None], n_yaw, axis=0)
-    candidates[:, yaw_i] = np.linspace(-np.pi, np.pi, n_yaw, endpoint=False)
-    scores = log_likelihood(measurement, model, candidates, variances=variances,
-                            coverage=coverage)
-    return candidates[int(np.argmax(scores))]
-
-
-def searches_hierarchically(config: TrackConfig) -> bool:
-    """Whether the filter searches partition by partition: ``filter.search = "hierarchical"``
-    with the ``apf`` strategy and the voxel likelihood at weight 1 (a limb is scored by
-    re-scoring its two cones; other cues are added evaluated on the whole state). Without the
-    voxel cue, and with the other strategies, the search is over all dimensions at once."""
-    fc = config.filter
-    return (fc.search == "hierarchical" and fc.strategy == "apf"
-            and dict(config.cues.weights).get("voxel") == 1.0)
-
-
-def annealing_layers(config: TrackConfig) -> int:
-    """Layers per frame of the filter a config builds (one ESS and β each in a record)."""
-    fc = config.filter
-    if fc.strategy == "sir":
-        return 1
-    if searches_hierarchically(config):
-        from .hierarchy import body_partitions
-
-        return sum(p.layers for p in body_partitions(fc))
-    return fc.layers
-
-
-def absent_record(model, observation, state, *, frame: int, n_layers: int, variances,
-                  seconds: float = 0.0) -> FrameRecord:
-    """The record of a frame without a person (``voxelmocap.pose.recovery``): nothing was tracked.
-
-    It repeats ``state`` (the last estimate, or wherever the track will start) so that every
-    export stays a valid pose, with ``observed = False``; ESS and β are NaN (no filter step).
-    """
-    from ..body import joints_to_endpoints
-    from ..score.likelihood import log_likelihood_from_scores, part_scores
-
-    state = np.asarray(state, dtype=float)
-    joints = model.forward(state[None]).joints
-    scores = part_scores(observation, model, state[None])[0]
-    return FrameRecord(
-        frame=int(frame), state=state.copy(), map_state=state.copy(), landmarks=joints[0],
-        endpoints=joints_to_endpoints(joints)[0], part_scores=scores,
-        ess=np.full(n_layers, np.nan), betas=np.full(n_layers, np.nan), seconds=seconds,
-        log_likelihood=float(log_likelihood_from_scores(scores, variances=variances)),
-        observed=False, note="no person in view")
-
-
-def ground_truth_landmarks(gt, frame: int) -> np.ndarray | None:
-    """A frame's true landmarks ``(15, 3)`` (mm) for :meth:`BodyTracker.initialise`.
-
-    Parameters
-    ----------
-    gt : voxelmocap.io.body_pose_xml.BodyPoseSequence or None
-        The sequence's ground truth.
-    frame : int
-        Synchronised frame number.
-
-    Returns
-    -------
-    (15, 3) ndarray or None
-        None when there is no ground truth, the frame is not in it, or an endpoint is disabled.
-    """
-    from ..joints import endpoints_to_landmarks
-
-    if gt is None:
-        return None
-    row = int(gt.index_of([frame])[0])
-    if row < 0 or not bool(gt.enabled[row].all()):
-        return None
-    return endpoints_to_landmarks(gt.endpoints[row])
-
-
-# ---------------------------------------------------------------------------- the tracker
 class BodyTracker:
     """Tracks one body through measured frames.
 
@@ -449,7 +162,15 @@ class BodyTracker:
         (:meth:`_paper_likelihood`); the tracking that follows uses ``[likelihood] coverage``.
         """
         with self._paper_likelihood():
-            return self._initial_state(observation, ground_truth, frame=frame)
+            phrase, states = self._initial_state(observation, ground_truth, frame=frame)
+        if self.config.init.start_turned:
+            # The test hook: the best start alone (no multi-start to choose another), turned
+            # round — a track that starts facing the wrong way on purpose.
+            from .facing import turned_round
+
+            states = turned_round(self.model, np.atleast_2d(states)[0])
+            phrase += "; its best start turned round on purpose (init.start_turned)"
+        return phrase, states
 
     def _initial_state(self, observation, ground_truth, *, frame) -> tuple[str, np.ndarray]:
         from ..body import fit_to_landmarks
@@ -467,12 +188,12 @@ class BodyTracker:
                                                coverage=self.coverage)
         else:
             from ..measure.detect import find_extremities
+            from ..measure.observation import no_voxels
             from .initialise import initial_pose
 
             ex = find_extremities(observation.occupancy, observation.grid)
             if ex is None:
-                raise InputError(which, "no occupied voxel: cannot initialise from the voxels "
-                                        "(is the person in view? is the background model right?)")
+                raise no_voxels(which, "initialise from the voxels")
             states, how = initial_pose(ex, self.model, self.log_likelihood(observation),
                                        n_best=self.config.init.hypotheses)
             phrase = f"the voxels of {which}: {how}"
@@ -667,7 +388,8 @@ class BodyTracker:
             Its synchronised number (default: the filter's step count, 1-based).
         """
         from ..body import joints_to_endpoints
-        from ..score.likelihood import part_scores
+        from ..body.model import PartGeometry
+        from ..score.likelihood import part_scores_of
         from .confidence import landmark_confidence, landmark_spread
 
         if not self.initialised:
@@ -681,10 +403,15 @@ class BodyTracker:
         every = self.config.filter.limb_sweep_every
         if every and pf.frame % every == 0 and self._hull_is_tight(observation):
             est = self._sweep_estimate(observation, est)
-        # One forward-kinematics pass for the landmarks and the endpoints (the endpoints are
-        # joints picked by index); the part scores run their own inside the likelihood kernel.
-        joints = self.model.forward(est).joints
-        scores = part_scores(observation, self.model, est)[0]
+        note = ""
+        every = self.config.filter.facing_check_every
+        if every and pf.frame % every == 0:
+            est, note = self._check_facing(observation, est)
+        # One forward-kinematics pass of the estimate: its landmarks, its endpoints (joints
+        # picked by index) and the cones its part scores are counted in.
+        kinematics = self.model.forward(est)
+        joints = kinematics.joints
+        scores = part_scores_of(observation, PartGeometry(kinematics, self.model.parts))[0]
         spread = landmark_spread(self.model.forward(pf.particles).joints, pf.weights)
         record = FrameRecord(
             frame=int(pf.frame if frame is None else frame),
@@ -700,14 +427,44 @@ class BodyTracker:
             likelihood_seconds=spent[0],
             landmark_spread=spread,
             confidence=landmark_confidence(spread, scores, self.model.part_names),
+            note=note,
         )
         for observer in self.observers:
             observer(record, self)
         return record
 
+    def _check_facing(self, observation, est):
+        """The estimate ``(1, 27)`` or its turned-round twin, whichever the frame prefers, and a
+        note when the track turned round (``[filter] facing_check_every``).
+
+        The twin (:func:`voxelmocap.pose.facing.turned_round`: the body turned 180° in place,
+        left and right exchanged) has its limbs searched over their ranges on this frame, then
+        both are scored by the tracking likelihood plus ``facing_weight`` × the facing evidence
+        (:func:`~voxelmocap.pose.facing.facing_evidence`); the twin is taken when it wins by
+        more than ``facing_margin``, and the particles follow it without carrying the motion
+        across the turn."""
+        from .facing import facing_evidence, turned_round
+        from .limb_search import sweep_limbs
+
+        fc = self.config.filter
+        twin = turned_round(self.model, est[0])
+        twin, _ = sweep_limbs(observation, self.model, twin, variances=self.variances,
+                              coverage=self.coverage, sweeps=1, seed=self.filter.frame,
+                              samples=fc.limb_sweep_samples, others=self._other_cues(observation),
+                              voxel_weight=self._voxel_weight)
+        both = np.stack([est[0], twin])
+        value = self.log_likelihood(observation)(both)
+        if fc.facing_weight:
+            value = value + fc.facing_weight * facing_evidence(observation, self.model, both)
+        gain = float(value[1] - value[0])
+        if gain <= fc.facing_margin:
+            return est, ""
+        self.filter.move_estimate(twin, keep_motion=False)
+        return twin[None], f"turned round (the twin facing the other way won by {gain:.1f})"
+
     def _record_log_likelihood(self, observation, est, scores) -> float:
         """The selected cues' value of the estimate, the voxel cue's without the coverage term
-        (paper 002's, from the part scores when it is alone): what the multi-start ranks starts
+        (paper 002's, from the part scores already counted): what the multi-start ranks starts
         by (the lost-track test watches :meth:`lost_track_value`). The coverage term is
         symmetric under turning round and swings with the hull's phantom volume
         (:meth:`_paper_likelihood`)."""
@@ -715,8 +472,10 @@ class BodyTracker:
 
         if self.cues.voxel_only:
             return float(log_likelihood_from_scores(scores, variances=self.variances))
-        with self._paper_likelihood():
-            return float(self.cues.log_likelihood(observation, est)[0])
+        values = self.cues.evaluate(observation, est, [n for n in self.cues.names if n != "voxel"])
+        if "voxel" in self.cues.names:
+            values["voxel"] = log_likelihood_from_scores(scores[None], variances=self.variances)
+        return float(self.cues.combine(values, 1)[0])
 
     def lost_track_value(self, record: FrameRecord) -> float:
         """What the lost-track rule (:class:`voxelmocap.pose.recovery.LostTrack`) watches: the voxel
@@ -834,67 +593,3 @@ class BodyTracker:
 
             self._recovery = Recovery(self)
             self._recovery.set_state(state)
-
-
-class MultiStart:
-    """Several starting poses tracked side by side for the first frames; the likeliest goes on.
-
-    Within one frame the annealing collapses a mixture of starting poses onto whichever scores
-    best on that frame, and far from the truth a mirrored pose (facing the other way) scores
-    about as well as the right one. Tracking each start separately for a few frames lets the
-    motion tell them apart: the start whose summed log-likelihood over those frames is highest
-    is kept, with the records of its first frames.
-
-    Parameters
-    ----------
-    model : BodyModel
-    config : TrackConfig
-    seed : int
-        Start ``k`` uses ``numpy.random.default_rng([seed, k])``.
-    states : (K, 27) array_like
-        The starting poses.
-    frames : int
-        Frames to track before choosing.
-    noise_std : (27,) array_like, optional
-        As for :class:`BodyTracker`.
-    """
-
-    def __init__(self, model, config: TrackConfig, seed: int, states, frames: int, *,
-                 noise_std=None):
-        self.frames = int(frames)
-        self.trackers: list[BodyTracker] = []
-        for k, state in enumerate(np.atleast_2d(np.asarray(states, dtype=float))):
-            tracker = BodyTracker(model, config, seed=np.random.default_rng([int(seed), k]),
-                                  noise_std=noise_std)
-            tracker.start("multi-start", state)
-            self.trackers.append(tracker)
-        self.records: list[list[FrameRecord]] = [[] for _ in self.trackers]
-        #: each start's filter state after each frame, so that the kept start's frames can be
-        #: written with their checkpoints (a run killed while writing them resumes exactly)
-        self.checkpoints: list[list[dict]] = [[] for _ in self.trackers]
-        self.chosen: int | None = None
-
-    def step(self, observation, *, frame: int | None = None) -> list[FrameRecord] | None:
-        """Step every start; after ``frames`` frames, the chosen start's records (else None)."""
-        for tracker, records, states in zip(self.trackers, self.records, self.checkpoints,
-                                            strict=True):
-            records.append(tracker.step(observation, frame=frame))
-            states.append(tracker.get_state())
-        return self.finish() if len(self.records[0]) >= self.frames else None
-
-    @property
-    def totals(self) -> list[float]:
-        """Each start's summed log-likelihood over the frames tracked so far."""
-        return [sum(r.log_likelihood for r in records) for records in self.records]
-
-    def finish(self) -> list[FrameRecord]:
-        """Choose now (e.g. the sequence ended early): the records of the likeliest start."""
-        self.chosen = int(np.argmax(self.totals))
-        return self.records[self.chosen]
-
-    @property
-    def tracker(self) -> BodyTracker:
-        """The chosen start's tracker (after :meth:`finish`)."""
-        if self.chosen is None:
-            raise RuntimeError("MultiStart.tracker: no start chosen yet")
-        return self.trackers[self.chosen]

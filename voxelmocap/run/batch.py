@@ -94,7 +94,7 @@ def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) 
     A complete result of other settings is not "done": tracking it again is refused by
     :func:`~voxelmocap.run.pipeline.track_sequence` with the reason (unless ``overwrite``). The
     last of several tracking passes records the config it tracked with
-    (:func:`voxelmocap.run.passes.final_config`: the silhouette cue added), which counts as this
+    (:func:`voxelmocap.run.plan.final_config`: the silhouette cue added), which counts as this
     one (``cues_given``: the cues were chosen, as ``track --cues``).
     """
     from ..io.results import read_result
@@ -113,7 +113,7 @@ def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) 
         return True
     if not str(attrs.get("plate_from", "")):
         return False
-    from .passes import final_config
+    from .plan import final_config
 
     final = final_config(config_from_toml(config_toml), cues_given)[0]
     return str(attrs.get("config")) == config_to_toml(final)

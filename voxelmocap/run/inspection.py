@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
-from .pipeline import result_body_model  # the body a result used (owned by the pipeline)
+from .bodies import result_body_model  # the body a result used
 
 __all__ = ["ALL_CAMERAS", "ViewOutcome", "overlay_video", "result_body_model", "view_dump",
            "view_png_path"]

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..config import TrackConfig
 from ..errors import InputError
+from ..frames import spread, spread_indices
 from ..logs import emit
 from ..measure.observation import VoxelObservation
 from ..measure.stage import MeasurementStage
@@ -214,7 +215,7 @@ class MeasurementRunner(MeasurementStage):
                                              "has a background video, or the method is mog2)")
         if self.learnt_plate:
             if plate_body is not None:
-                numbers = _spread_over(plate_body.frames, silhouette.plate_frames)
+                numbers = spread(plate_body.frames, silhouette.plate_frames)
                 samples = self._read_frames(seq, numbers)
                 states = plate_body.states[np.searchsorted(plate_body.frames, numbers)]
                 plain = [cam for cam in rig if cam.name in missing]  # the others have videos
@@ -243,6 +244,8 @@ class MeasurementRunner(MeasurementStage):
         else:
             if missing:
                 # MOG2 asked for: train on frames spread over the whole sequence.
+                # (frame numbers rounded from 1..n, not spread(): its ties round differently, and
+                # MOG2's training frames are kept as they were)
                 n = seq.n_frames
                 sample = np.unique(np.linspace(1, n, min(n, mc.background_frames)).round()
                                    .astype(int))
@@ -265,7 +268,7 @@ class MeasurementRunner(MeasurementStage):
                 # the plate's samples, thinned: each one segments every camera (with GrabCut
                 # on a learnt plate's never-seen pixels), and 20 spread frames place the box
                 n = len(next(iter(samples.values())))
-                pick = np.unique(np.linspace(0, n - 1, min(n, GRID_FRAMES)).round().astype(int))
+                pick = spread_indices(n, GRID_FRAMES)
                 samples = {c: v[pick] for c, v in samples.items()}
             stage = MeasurementStage(rig, coarse, backgrounds, silhouette, holes=holes,
                                      person_only=True, hole_reach=mc.carve_hole_reach)
@@ -305,7 +308,7 @@ class MeasurementRunner(MeasurementStage):
         elif placement == "person":
             coarse = _coarse_grid(rig, mc)
             samples = self._sample_frames(seq, GRID_FRAMES)
-            given = [m for _, m in person_masks.read(_spread(seq, GRID_FRAMES))]
+            given = [m for _, m in person_masks.read(spread(seq.frame_numbers, GRID_FRAMES))]
             stage = MeasurementStage(rig, coarse, None, mc.silhouette, holes=holes,
                                      person_only=True, hole_reach=mc.carve_hole_reach)
             grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
@@ -323,7 +326,7 @@ class MeasurementRunner(MeasurementStage):
 
     def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:
         """``count`` frames spread evenly over the sequence, per camera (F, H, W, C) uint8."""
-        return self._read_frames(seq, _spread(seq, count))
+        return self._read_frames(seq, spread(seq.frame_numbers, count))
 
     @staticmethod
     def _read_frames(seq, numbers) -> dict[str, np.ndarray]:
@@ -427,18 +430,6 @@ def _placed(grid, margin: float) -> str:
             f"{grid.shape[0]}x{grid.shape[1]}x{grid.shape[2]} voxels from "
             f"({', '.join(f'{v:.0f}' for v in grid.low)}) to "
             f"({', '.join(f'{v:.0f}' for v in grid.high)}) mm")
-
-
-def _spread(seq, count: int) -> np.ndarray:
-    """At most ``count`` frame numbers of ``seq`` spread evenly from its first to its last."""
-    return _spread_over(seq.frame_numbers, count)
-
-
-def _spread_over(numbers, count: int) -> np.ndarray:
-    """At most ``count`` of ``numbers`` spread evenly from the first to the last."""
-    numbers = np.asarray(numbers)
-    return numbers[np.unique(np.linspace(0, len(numbers) - 1, min(len(numbers), count))
-                             .round().astype(int))]
 
 
 def _list(frames: list[int], n: int = 10) -> str:

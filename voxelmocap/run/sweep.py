@@ -8,8 +8,8 @@ interrupted or extended sweep only runs what is missing; the settings shared by 
 set, sequence, frames, δ, base config) are kept in ``SWEEP/settings.json`` and a re-run with
 other ones is refused rather than mixed in. The collected table goes to
 ``SWEEP/sweep.csv``; :func:`voxelmocap.evaluation.best_cell` finds the cheapest cell (smallest
-``N_L · N_p``) that reaches the best MMTA, which :func:`voxelmocap.viz.plots.plot_sweep_heatmaps` marks on one MMTA
-heatmap over ``N_L × N_p`` per (voxel size, cameras), like the paper's Fig. 4 (the ``sweep``
+``N_L · N_p``) that reaches the best MMTA, which :func:`voxelmocap.viz.plots.plot_sweep_heatmaps`
+marks on one MMTA heatmap over ``N_L × N_p`` per (voxel size, cameras), like the paper's Fig. 4 (the ``sweep``
 command draws them; this module does not import ``viz``).
 
 Tasks run through :mod:`voxelmocap.run.tasks` (shared with ``track --all``) on a local Dask cluster

@@ -111,16 +111,37 @@ def part_counts(observation: VoxelObservation, model, states, *, clip: bool = Fa
     (P, n_parts, 6) int64 ndarray
         ``|Y|``, Out, DO, Occ, ``|Y^S|`` and ``Σ_{Y^S} (QMAX − Ṽq)`` (see :data:`COUNT_NAMES`).
     """
+    return counts_of(observation, _geometry(model, states, clip))
+
+
+def counts_of(observation: VoxelObservation, geometry) -> np.ndarray:
+    """:func:`part_counts` of cones whose geometry is already computed (e.g. from the forward
+    kinematics that also gave a record's landmarks).
+
+    Parameters
+    ----------
+    observation : VoxelObservation
+    geometry : voxelmocap.body.model.PartGeometry
+        Of legal states.
+
+    Returns
+    -------
+    (P, n_parts, 6) int64 ndarray
+    """
     if not isinstance(observation, VoxelObservation):
         raise InputError("observation",
                          f"expected a VoxelObservation, got {type(observation).__name__}")
-    geo = _geometry(model, states, clip)
-    g = observation.grid
-    counts = np.zeros((geo.n_particles, len(model.parts), _k.N_COUNTS), dtype=np.int64)
+    geo, g = geometry, observation.grid
+    counts = np.zeros((geo.n_particles, len(geo.shape), _k.N_COUNTS), dtype=np.int64)
     _k.part_counts(geo.base, geo.axis, geo.u1, geo.u2, geo.shape, *g.origin, g.voxel_size,
                    observation.prefix, observation.prefix_lattice, QMAX, _k.default_chunks(),
                    counts)
     return counts
+
+
+def part_scores_of(observation: VoxelObservation, geometry) -> np.ndarray:
+    """:func:`part_scores` of cones whose geometry is already computed: ``(P, n_parts, 4)``."""
+    return scores_from_counts(counts_of(observation, geometry))
 
 
 def scores_from_counts(counts) -> np.ndarray:

@@ -21,6 +21,7 @@ complete, so a failure leaves nothing half-written.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import shutil
@@ -32,6 +33,7 @@ import numpy as np
 
 from ..errors import InputError
 from .body_shape import BodyShape, _subject_rng, body_primitives, subject_body
+from .heading import frames_out_of_view, turn_about_vertical
 from .resample import (
     ProceduralSource,
     motion_source,
@@ -46,6 +48,8 @@ __all__ = ["CODECS", "default_rig_path", "generate"]
 
 #: FourCC of each supported codec name (all written and read back by OpenCV's FFmpeg backend).
 CODECS = {"FFV1": "FFV1", "MJPG": "MJPG", "XVID": "XVID", "HFYU": "HFYU"}
+
+logger = logging.getLogger(__name__)
 
 _NAME = re.compile(r"^[A-Za-z0-9]+$")
 _ACTION = re.compile(r"^[A-Za-z]+$")
@@ -91,8 +95,8 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
              action: str | None = None, trial: int = 1, rig=None, fps: float = 60.0,
              seed: int = 0, noise: float = 1.0, cameras=None, progress: bool = True, *,
              render_masks: bool = False, codec: str = "MJPG", background_frames: int = 120,
-             start: float = 0.0, unit="auto", scene_seed: int = 0, overwrite: bool = True
-             ) -> Path:
+             start: float = 0.0, unit="auto", scene_seed: int = 0, overwrite: bool = True,
+             heading_deg: float = 0.0) -> Path:
     """Render a synthetic HumanEva-I sequence and return the data set root (``out_dir``).
 
     Parameters
@@ -138,6 +142,12 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     overwrite : bool
         Replace an existing sequence of the same subject, action and trial (all its cameras);
         when False, an existing one is an :class:`InputError`.
+    heading_deg : float
+        Turn the placed motion by this angle (degrees, counter-clockwise seen from above) about
+        the vertical through the pelvis at synchronised frame 1 before rendering
+        (:func:`voxelmocap.synth.heading.turn_about_vertical`); the ground truth is the turned
+        motion's. 0 (the default) leaves the motion as placed. A turned motion that leaves the
+        cameras' common view is logged as a warning (and still rendered).
 
     Returns
     -------
@@ -161,6 +171,8 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
     src_probe = motion_source(motion, seed=seed, unit=unit)
     action = action or src_probe.action
     _check_options(frames, fps, noise, trial, subject, action, codec, background_frames)
+    if not np.isfinite(heading_deg):
+        raise InputError("--heading", f"must be a finite angle in degrees, got {heading_deg}")
     frames, trial = int(frames), int(trial)
     if rig is None or isinstance(rig, (str, os.PathLike)):
         rig = read_rig(rig if rig is not None else default_rig_path())
@@ -194,8 +206,17 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
                                      f"from {start:g} s it supplies at most {max(most, 0)} frames "
                                      f"(after {d_max} camera-lead frames); asked for {frames}")
     points = place_in_area(sample_motion(source, total, fps, start=start), fps)
+    if heading_deg != 0:
+        # turned after placing, about frame 1's pelvis: the start stays where the clip put it
+        points = turn_about_vertical(points, heading_deg, pivot_frame=d_max)
     sync_numbers = np.arange(1 - d_max, frames + 1)
     truth = points[d_max:]
+    if heading_deg != 0:
+        missed = frames_out_of_view(rig, truth).any(axis=1)
+        if missed.any():
+            logger.warning("turned by %g°, %s leaves the cameras' common view in %d of %d frames "
+                           "(first: frame %d)", heading_deg, source.name, int(missed.sum()),
+                           frames, int(np.argmax(missed)) + 1)
     height = (source.height if isinstance(source, ProceduralSource)
               else stature_estimate(truth))
     shape = BodyShape.for_subject(subject, height)
@@ -253,6 +274,8 @@ def generate(out_dir, motion: str = "walk", frames: int = 60, subject: str = "S1
                  "SubjectName": subject, "ActionType": action, "Trial": trial, "FrameStart": 1,
                  "FrameEnd": frames, "Partition": "Synthetic", "Motion": source.name,
                  "Seed": seed, "FrameRate": f"{fps:g}"}
+        if heading_deg != 0:
+            attrs["Heading"] = f"{heading_deg:g}"
         write_body_pose_xml(sdir / "Mocap_Data" / f"{seq}.xml", np.arange(1, frames + 1),
                             endpoints_from_canonical(truth), attributes=attrs)
         write_body_file(sdir / "Mocap_Data" / f"{subject}_body.toml", body, subject)

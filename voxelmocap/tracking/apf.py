@@ -295,10 +295,13 @@ class AnnealedParticleFilter:
         self._history = np.empty((0, self.dim))
         self._clear_records()
 
-    def move_estimate(self, state) -> None:
+    def move_estimate(self, state, *, keep_motion: bool = True) -> None:
         """Replace the last estimate by ``state`` (D,) found outside the filter (e.g. a global
         search of a few dimensions), moving every particle by the same offset (clipped to the
-        bounds) so that the next step searches around it."""
+        bounds) so that the next step searches around it.
+
+        With ``keep_motion`` False the estimates before it are forgotten too, so the dynamics
+        see no velocity across the move (a move that is no motion: the body turned round)."""
         if self.estimate is None:
             raise RuntimeError("move_estimate: no estimate yet")
         state = np.asarray(state, dtype=float)
@@ -308,6 +311,8 @@ class AnnealedParticleFilter:
         self.map_particle = np.clip(np.asarray(self.map_particle) + delta, self.low, self.high)
         if len(self._history):
             self._history[-1] = state
+            if not keep_motion:
+                self._history = self._history[-1:].copy()
 
     def clear_history(self) -> None:
         """Forget the estimates the dynamics see (e.g. after settling steps on one frame) and

@@ -18,7 +18,7 @@ as indices.
   on the matching shoulder twist is ``singular_std`` (0.4 rad) instead of the base noise.
 
 Models are looked up by name in :data:`DYNAMICS` (the configuration's ``filter.dynamics``; the
-body tracker builds them with ``voxelmocap.pose.tracker.build_dynamics``).
+body tracker builds them with ``voxelmocap.pose.filter_setup.build_dynamics``).
 
 >>> import numpy as np
 >>> m = VelocityModel(0.7)

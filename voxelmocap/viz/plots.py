@@ -96,8 +96,8 @@ def sweep_grid(rows, voxel_size: float, n_cameras: int):
 
 def plot_sweep_heatmaps(rows, out_dir, *, tolerance: float = 0.0) -> list[Path]:
     """One MMTA heatmap per (voxel size, cameras), the cheapest best cell marked in red."""
-    from ..io._atomic import atomic_path
     from ..evaluation import best_cell
+    from ..io._atomic import atomic_path
 
     plt = _pyplot()
     out_dir = Path(out_dir)

@@ -1,9 +1,10 @@
 """Write the config golden files: the TOML text of a few configs and the verdict on many probes.
 
-The files in this folder were written by the code of commit 792b8d3 (``voxelmocap/config.py``
-before it became a schema, issue 32), so ``tests/test_config_schema.py`` holds the schema to the
-behaviour it replaced. Rerun against another checkout with ``PYTHONPATH=<checkout> python
-tests/data/config/make_golden.py`` (it writes beside itself).
+The files in this folder were written by the code of commit c97013a (``voxelmocap/config.py``
+before it became a schema, issue 32, with issue 33's facing keys), so
+``tests/test_config_schema.py`` holds the schema to the behaviour it replaced. Rerun against
+another checkout with ``PYTHONPATH=<checkout> python tests/data/config/make_golden.py`` (it
+writes beside itself).
 
 ``probes.json``: one entry per probe, ``[data, verdict]``, where ``data`` is the nested dict
 handed to ``config_from_dict`` (source ``cfg``) and ``verdict`` is ``"ok"`` or the error message.

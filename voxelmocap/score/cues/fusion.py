@@ -169,11 +169,17 @@ class CueSet:
         """The fused log-likelihood ``Σ_c w_c log p_c`` of ``(P, 27)`` states → ``(P,)``, over
         the selected cues not named in ``without``."""
         names = [n for n in self.names if n not in without]
-        parts = self.evaluate(observation, states, names)
-        total = np.zeros(len(np.atleast_2d(states)))
-        for n, w in zip(self.names, self.weights, strict=True):
-            if n in parts:
-                total += w * parts[n]
+        return self.combine(self.evaluate(observation, states, names),
+                            len(np.atleast_2d(states)))
+
+    def combine(self, values: dict, n_states: int) -> np.ndarray:
+        """``Σ_c w_c values[c]`` ``(n_states,)`` over the cues present in ``values`` (each
+        ``(n_states,)``), summed in :attr:`names` order (so that a value computed elsewhere,
+        e.g. the voxel cue's from part scores already counted, gives the same sum to the bit)."""
+        total = np.zeros(n_states)
+        for name, w in zip(self.names, self.weights, strict=True):
+            if name in values:
+                total += w * values[name]
         return total
 
     def frame(self, observation, reference=None, *, without=()
