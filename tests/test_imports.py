@@ -89,14 +89,15 @@ def test_no_import_cycle_in_the_package():
 
 #: The layers, bottom up: a module imports only its own layer and the layers below it. The
 #: foundations know no wing; ``io`` turns files into their objects; ``config`` (validated
-#: settings, read through ``io.toml``) sits on both; the science wings follow the data path
-#: (measure → score → pose); ``viz`` draws; ``run`` loops over sequences and touches files;
-#: the command line is the top. ``docs/architecture.md`` draws the same order.
+#: settings, read through ``io.toml``; its schema machinery in ``_config_schema``) sits on
+#: both; the science wings follow the data path (measure → score → pose); ``viz`` draws;
+#: ``run`` loops over sequences and touches files; the command line is the top.
+#: ``docs/architecture.md`` draws the same order.
 LAYERS = (
     ("foundations", ("errors", "logs", "joints", "frames", "smoothing", "camera", "grid",
                      "evaluation", "body", "tracking")),
     ("io", ("io",)),
-    ("config", ("config",)),
+    ("config", ("config", "_config_schema")),
     ("synth", ("synth",)),
     ("measure", ("measure",)),
     ("score", ("score",)),
