@@ -6,27 +6,11 @@ import pytest
 from voxelmocap.cli import main
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
-from voxelmocap.frames import parse_frame_range
 from voxelmocap.io.reports import evaluate_files
 from voxelmocap.io.results import read_result
 from voxelmocap.run.pipeline import track_sequence
 
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150})
-
-
-def test_parse_frame_range():
-    available = np.arange(1, 21)
-    np.testing.assert_array_equal(parse_frame_range("6:9", available), [6, 7, 8, 9])
-    np.testing.assert_array_equal(parse_frame_range(":3", available), [1, 2, 3])
-    np.testing.assert_array_equal(parse_frame_range("18:", available), [18, 19, 20])
-    np.testing.assert_array_equal(parse_frame_range("3,1,3", available), [1, 3])
-    np.testing.assert_array_equal(parse_frame_range(None, available), available)
-    with pytest.raises(InputError, match="outside"):
-        parse_frame_range("15:25", available)
-    with pytest.raises(InputError, match="expected A:B"):
-        parse_frame_range("a:b", available)
-    with pytest.raises(InputError, match="empty range"):
-        parse_frame_range("9:3", available)
 
 
 def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
