@@ -13,7 +13,8 @@ from voxelmocap.errors import InputError
 from voxelmocap.io.qualisys import qca_to_opencv, read_qca
 
 DATA = Path(__file__).resolve().parents[1] / "data"
-DEMO_QCA = Path("/work/p2s/x/Pose2Sim/Demo_SinglePerson/calibration/Calib.qca.txt")
+#: Pose2Sim 0.10.49's demo calibration, copied unchanged (BSD-3-Clause; tests/data/README.md).
+DEMO_QCA = DATA / "pose2sim_demo_Calib.qca.txt"
 
 
 def _known_rig() -> Rig:
@@ -128,7 +129,6 @@ def test_unused_terms_are_noted(tmp_path):
     assert len(notes) == 1 and "radialDistortion3=0.01 is not used" in notes[0]
 
 
-@pytest.mark.skipif(not DEMO_QCA.exists(), reason="Pose2Sim demo not unpacked at /work/p2s")
 def test_demo_matches_pose2sim_conversion():
     """Pose2Sim 0.10.49's calib_qca_fun on its demo (scripts/qca_reference.py wrote the fixture)."""
     reference = json.loads((DATA / "pose2sim_demo_qca.json").read_text())["cameras"]

@@ -4,7 +4,7 @@ The prefix sums along z of the scene mask, the occupancy and the quantised smoot
 what every likelihood kernel reads. NumPy builds them in four passes over the grid (quantise, then
 one strided ``cumsum`` per table), single-threaded — about a third of a frame's filter time at the
 paper's working point. One pass per (x, y) column, columns spread over the cores, gives the same
-integers (``tests/test_measurement.py`` compares it with the NumPy expressions).
+integers (``tests/measure/test_measurement.py`` compares it with the NumPy expressions).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ NumPy evaluates the per-pixel Gaussian log-likelihood through whole-image tempor
 difference, its square, the weighted channel sum, the constant) on one core; at 7 cameras this
 was half of the measurement stage. The kernel does the same float32 arithmetic in the same order
 per pixel, rows spread over the cores, and writes the mask directly
-(``tests/test_silhouette.py`` compares it with the NumPy expression).
+(``tests/measure/test_silhouette.py`` compares it with the NumPy expression).
 """
 
 from __future__ import annotations

@@ -86,8 +86,9 @@ class TrackRequest:
 
     def result_paths(self, seq, folder: str = "") -> tuple[Path, Path, Path]:
         """``(h5, xml, bvh)`` of ``seq`` under ``RUN/<subject>/<folder>/``."""
-        base = Path(self.out_dir) / seq.subject / folder / seq.name
-        return base.with_suffix(".h5"), base.with_suffix(".xml"), base.with_suffix(".bvh")
+        # appended, not Path.with_suffix: a project's trial named "walk.2" is not "walk"
+        folder = Path(self.out_dir) / seq.subject / folder
+        return tuple(folder / f"{seq.name}{ext}" for ext in (".h5", ".xml", ".bvh"))
 
 
 @dataclass

@@ -17,7 +17,7 @@ few per voxel and per other moving part, which made the legs' four cones dearer 
 way than all ten in full.
 
 The static parts' DO among themselves comes from the full kernel run on the static subset. The
-sum equals the full kernel's integer counts exactly (``tests/test_partial_likelihood.py``).
+sum equals the full kernel's integer counts exactly (``tests/score/test_partial_likelihood.py``).
 """
 
 from __future__ import annotations

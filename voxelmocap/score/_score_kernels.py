@@ -4,7 +4,7 @@ The hierarchical search turns integer counts into log-likelihoods about 25 times
 to 600 particles each; in NumPy the chain's temporaries and boolean masks cost more than the
 arithmetic (≈ 120 µs a call for the scores and the coverage term). These loops do the same
 floating-point operations in the same order per element, so the results are equal bit for bit
-(``tests/test_likelihood.py``); the weighted sum over parts and terms stays NumPy's ``einsum``.
+(``tests/score/test_likelihood.py``); the weighted sum over parts and terms stays NumPy's ``einsum``.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ double occupancy (DO) can change, where the moving limb enters them. :class:`Par
 finds the static parts' runs once (``_partial_kernels.static_runs``) and, per particle,
 rasterises the moving parts only (``_partial_kernels.partial_counts``). A limb layer costs two
 cones per particle instead of ten, and the counts equal :func:`voxelmocap.score.likelihood.part_counts`
-of the full state exactly (integers; ``tests/test_partial_likelihood.py``).
+of the full state exactly (integers; ``tests/score/test_partial_likelihood.py``).
 
 >>> import numpy as np
 >>> from voxelmocap.body import BodyModel

@@ -9,11 +9,10 @@ from voxelmocap.body import BodyModel
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.pose.filter_setup import build_dynamics, noise_profile
+from voxelmocap.pose.filter_setup import noise_profile
 from voxelmocap.pose.records import Collector
 from voxelmocap.pose.tracker import BodyTracker
 from voxelmocap.score.likelihood import Measurement, log_likelihood, part_scores, rasterise
-from voxelmocap.tracking import RandomWalk, TwoStateElbow, VelocityModel
 
 # the joint search (paper 002) with no settling: these tests check the tracker against the
 # filter it assembles; the hierarchical search has its own (tests/tracking/test_partitioned.py)
@@ -107,17 +106,11 @@ def test_observers_see_every_record(walk):
     out = kept.stacked()
     np.testing.assert_array_equal(out["frame"], [3, 4, 5, 6])
     np.testing.assert_array_equal(out["state"], np.array([r.state for r in records]))
-    with pytest.raises(ValueError, match="no field"):
-        Collector("nope")
 
 
 def test_noise_override_replaces_the_profile():
+    # the profile itself: tests/pose/test_filter_setup.py
     profile = noise_profile(MODEL, SMALL)
-    names = list(MODEL.state_names)
-    # The profile itself: translation, root and trunk on their own stds, limbs on the joints'.
-    assert np.all(profile[:3] == SMALL.filter.translation_std_mm)
-    assert profile[names.index("waist_flex")] == SMALL.filter.rotation_std_rad
-    assert profile[names.index("l_knee")] == SMALL.filter.joint_std_rad
     custom = np.full(27, 0.01)
     tracker = BodyTracker(MODEL, SMALL, noise_std=custom)
     np.testing.assert_array_equal(tracker.filter.noise_std, custom)
@@ -147,80 +140,6 @@ def test_initialisation_methods(walk):
         vox.initialise(empty, None, frame=1)
     with pytest.raises(RuntimeError, match="initialise"):
         BodyTracker(MODEL, SMALL).step(obs[0])
-
-
-def test_dynamics_built_by_name():
-    for name, cls in [("random_walk", RandomWalk), ("velocity", VelocityModel),
-                      ("elbow", TwoStateElbow)]:
-        dyn = build_dynamics(MODEL, with_overrides(SMALL, **{"filter.dynamics": name}).filter)
-        assert type(dyn) is cls
-    elbow = build_dynamics(MODEL, with_overrides(SMALL, **{"filter.dynamics": "elbow"}).filter)
-    names = list(MODEL.state_names)
-    assert list(elbow.twist_indices) == [names.index("l_shoulder_rot"),
-                                         names.index("r_shoulder_rot")]
-    assert list(elbow.elbow_indices) == [names.index("l_elbow"), names.index("r_elbow")]
-
-
-def test_every_filter_option_reaches_the_filter_from_toml():
-    import dataclasses
-
-    from voxelmocap.config import config_from_toml
-    from voxelmocap.pose.filter_setup import build_filter
-
-    text = """
-    [filter]
-    search = "joint"
-    layers = 3
-    particles = 50
-    survival = 0.3
-    noise_decay = 0.7
-    betas = [0.1, 0.4, 1.0]
-    alphas = [1.0, 4.0, 25.0]
-    beta_max = 50.0
-    resampling = "residual"
-    iapf_fractions = [0.7, 0.1]
-    dynamics = "elbow"
-    velocity_factor = 0.5
-    elbow_threshold_rad = 0.3
-    elbow_singular_std_rad = 0.6
-    """
-    cfg = config_from_toml(text)
-    pf = build_filter(MODEL, cfg, 0)
-    assert (pf.n_layers, pf.n_particles, pf.survival, pf.beta_max) == (3, 50, 0.3, 50.0)
-    np.testing.assert_array_equal(pf._betas, [0.1, 0.4, 1.0])
-    np.testing.assert_allclose(pf._scales, 1.0 / np.sqrt([1.0, 4.0, 25.0]))  # alphas win
-    assert pf.resampling == "residual" and pf.iapf_fractions == (0.7, 0.1)
-    dyn = pf.dynamics
-    assert (type(dyn), dyn.factor, dyn.threshold, dyn.singular_std) == (TwoStateElbow, 0.5, 0.3,
-                                                                       0.6)
-    # noise_decay reaches the filter when no alphas are given
-    pf = build_filter(MODEL, dataclasses.replace(cfg, filter=dataclasses.replace(
-        cfg.filter, alphas=None)), 0)
-    np.testing.assert_allclose(pf._scales, np.sqrt(0.7 ** np.arange(3)))
-    # every FilterConfig field is one of the above or a noise / size / strategy setting
-    used = {"layers", "particles", "survival", "noise_decay", "betas", "alphas", "beta_max",
-            "resampling", "iapf_fractions", "dynamics", "velocity_factor", "elbow_threshold_rad",
-            "elbow_singular_std_rad", "strategy", "translation_std_mm", "rotation_std_rad",
-            "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
-            "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal",
-            "limb_sweep_every", "limb_sweep_gain", "limb_sweep_max_hull",
-            "limb_sweep_samples", "limb_swaps"}
-    assert {f.name for f in dataclasses.fields(cfg.filter)} == used
-    # the hierarchical search's own options
-    hier = config_from_toml("""
-    [filter]
-    search = "hierarchical"
-    trunk_layers = 4
-    trunk_particles = 300
-    limb_layers = 3
-    limb_particles = 120
-    refine_evaluations = 24
-    survival = 0.4
-    """)
-    pf = build_filter(MODEL, hier, 0)
-    assert [(len(p.dims), p.layers, p.particles) for p in pf.partitions] == \
-        [(11, 4, 300), (8, 3, 240), (4, 3, 120), (4, 3, 120)]
-    assert (pf.refine_evaluations, pf.survival, pf.n_total) == (24, 0.4, 300)
 
 
 @pytest.mark.parametrize(

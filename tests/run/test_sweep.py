@@ -16,10 +16,34 @@ def test_plan_is_the_product_with_distinct_seeds():
     assert len(cells) == 2 * 3 * 2 * 2
     assert len({c.seed for c in cells}) == len(cells)
     assert len({c.name for c in cells}) == len(cells)
-    # stable across processes and runs
-    assert SweepCell(2, 100, 20.0, 7, 1).seed == SweepCell(2, 100, 20.0, 7, 1).seed
     with pytest.raises(InputError):
         plan_cells([1], [0], [20.0], [3], seeds=1)
+
+
+#: Seeds of two cells as the sweep first derived them (SeedSequence of the cell's parameters):
+#: a re-run of a sweep, on any machine, must track each cell with the seed it had.
+RECORDED_SEEDS = {SweepCell(2, 100, 20.0, 7, 1): 362323578,
+                  SweepCell(1, 200, 12.5, 4, 0): 1596136430}
+
+
+def test_seeds_are_the_recorded_ones_in_any_process():
+    """Stable across runs and processes: the recorded values, and the same seeds for a whole
+    plan computed in two other interpreters with other string-hash seeds (a seed drawn from
+    ``hash()`` of the cell's name would differ between them)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    assert {cell: cell.seed for cell in RECORDED_SEEDS} == RECORDED_SEEDS
+    cells = plan_cells([1, 2], [100, 400], [12.5, 20.0], [4, 7], seeds=2)
+    code = ("import json; from voxelmocap.run.sweep import plan_cells; print(json.dumps("
+            "[c.seed for c in plan_cells([1, 2], [100, 400], [12.5, 20.0], [4, 7], seeds=2)]))")
+    for hash_seed in ("1", "2"):
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), PYTHONHASHSEED=hash_seed)
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, check=True).stdout
+        assert json.loads(out) == [c.seed for c in cells], hash_seed
 
 
 def test_best_cell_is_the_cheapest_reaching_the_best():

@@ -16,7 +16,7 @@ from voxelmocap.measure.silhouette import SilhouetteConfig, build_backgrounds
 from voxelmocap.measure.stage import MeasurementStage
 from voxelmocap.measure.surface import smooth_surface, surface_voxels
 
-RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
+RIG_DIR = Path(__file__).resolve().parents[2] / "calib" / "humaneva_i_like"
 CENTRE, RADIUS = np.array([100.0, 50.0, 900.0]), 400.0
 
 

@@ -408,29 +408,6 @@ def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monk
     np.testing.assert_array_equal(final.state, second.state)
 
 
-@pytest.mark.parametrize("first, expected", [(3, [False, False, True, True]),
-                                             (2, [False, True, True, True]),
-                                             (0, [False, False, False, False])])
-def test_which_passes_continue_the_previous_one(first, expected):
-    """``[init] previous_pass_start``: pass k continues from this one on (0: never); the first
-    pass has no previous pass to continue; every later pass learns its plate from the previous
-    pass's body."""
-    import types
-
-    from voxelmocap.run.plan import plan_passes
-
-    config = with_overrides(TrackConfig(), **{"init.previous_pass_start": first,
-                                              "measurement.silhouette.plate_passes": 4})
-    no_videos = types.SimpleNamespace(camera_names=["C1", "C2"], background_paths=lambda c: [])
-    plan = plan_passes(no_videos, config, n_frames=20)
-    assert [p.continues for p in plan.passes] == expected
-    assert [p.plate for p in plan.passes] == ["carving", "previous", "previous", "previous"]
-    assert [p.folder for p in plan.passes] == ["pass1", "pass2", "pass3", ""]
-    # the plan is what the log says at the start
-    assert plan.describe()[0].startswith("4 tracking passes")
-    assert len(plan.describe()) == 5
-
-
 def _saw_too_few(monkeypatch, which):
     """Make the passes ``which(run)`` selects report 3 frames with the person (as if the person
     had been out of view): the run's rule for a pass that gives no body then applies."""

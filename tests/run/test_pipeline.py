@@ -6,27 +6,11 @@ import pytest
 from voxelmocap.cli import main
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
-from voxelmocap.frames import parse_frame_range
 from voxelmocap.io.reports import evaluate_files
 from voxelmocap.io.results import read_result
 from voxelmocap.run.pipeline import track_sequence
 
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 3, "filter.particles": 150})
-
-
-def test_parse_frame_range():
-    available = np.arange(1, 21)
-    np.testing.assert_array_equal(parse_frame_range("6:9", available), [6, 7, 8, 9])
-    np.testing.assert_array_equal(parse_frame_range(":3", available), [1, 2, 3])
-    np.testing.assert_array_equal(parse_frame_range("18:", available), [18, 19, 20])
-    np.testing.assert_array_equal(parse_frame_range("3,1,3", available), [1, 3])
-    np.testing.assert_array_equal(parse_frame_range(None, available), available)
-    with pytest.raises(InputError, match="outside"):
-        parse_frame_range("15:25", available)
-    with pytest.raises(InputError, match="expected A:B"):
-        parse_frame_range("a:b", available)
-    with pytest.raises(InputError, match="empty range"):
-        parse_frame_range("9:3", available)
 
 
 def test_tracks_a_rendered_walk_within_stated_error(walk_dataset, tmp_path):
@@ -334,32 +318,9 @@ def test_tracks_without_ground_truth_or_body_file(walk_dataset, walk_without_ans
     assert b.attrs["body_height_mm"] == result.attrs["body_height_mm"]
 
 
-def test_multistart_keeps_the_likeliest_start(walk_without_answer, tmp_path):
-    from voxelmocap.body import BodyModel
-
-    # Unit level: each start is an independent tracker; the kept one is the likeliest and its
-    # records equal a lone tracker started from the same pose with the same random stream.
-    from voxelmocap.grid import VoxelGrid
-    from voxelmocap.pose.multistart import MultiStart
-    from voxelmocap.pose.tracker import BodyTracker
-    from voxelmocap.score.likelihood import Measurement, rasterise
-
-    model = BodyModel()
-    grid = VoxelGrid((-1200.0, -1200.0, 0.0), 40.0, (60, 60, 50))
-    truth = model.default_state()
-    obs = Measurement(rasterise(model, truth[None], grid) > 0, grid)
-    wrong = truth.copy()
-    wrong[0] += 300.0  # 30 cm off: clearly less likely
-    states = np.array([wrong, truth])
-    multi = MultiStart(model, SMALL, 5, states, 3)
-    assert multi.step(obs, frame=1) is None and multi.step(obs, frame=2) is None
-    records = multi.step(obs, frame=3)
-    assert multi.chosen == 1 and len(records) == 3
-    lone = BodyTracker(model, SMALL, seed=np.random.default_rng([5, 1]))
-    lone.start("truth", truth)
-    for k in range(3):
-        np.testing.assert_array_equal(lone.step(obs, frame=k + 1).state, records[k].state)
-    # Pipeline level: the buffered first frames are written, then tracking goes on and resumes.
+def test_multistart_in_a_run(walk_without_answer, tmp_path):
+    """The starts tracked side by side (the choice itself: tests/pose/test_starts.py): the
+    buffered first frames are written, then tracking goes on."""
     config = with_overrides(SMALL, **{"init.multistart_frames": 3})
     kwargs = dict(config=config, frames="1:6", seed=2, progress=False, log=lambda *_: None)
     out = track_sequence(walk_without_answer, "S1", "Walking_1", tmp_path / "run", **kwargs)

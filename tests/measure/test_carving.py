@@ -18,7 +18,7 @@ from voxelmocap.grid import VoxelGrid
 from voxelmocap.io.calibration import read_rig
 from voxelmocap.measure.carving import Carver, EmptySilhouetteWarning, carve, carve_reference
 
-RIG_DIR = Path(__file__).resolve().parents[1] / "calib" / "humaneva_i_like"
+RIG_DIR = Path(__file__).resolve().parents[2] / "calib" / "humaneva_i_like"
 SPHERE_C = np.array([150.0, -80.0, 1000.0])
 SPHERE_R = 350.0
 BOX = (np.array([-400.0, -250.0, 0.0]), np.array([300.0, 350.0, 1700.0]))
