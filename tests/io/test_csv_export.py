@@ -60,7 +60,8 @@ def test_the_reader_reads_back_what_the_writer_wrote(tmp_path):
     x, confidence, spread = _data(seed=4, n=5)
     path = write_landmarks_csv(tmp_path / "a.csv", x, NAMES, frames=[9, 3, 4, 5, 7],
                                frame_rate=60.0, confidence=confidence, spread=spread)
-    names, frames, positions = read_points_csv(path)
+    names, frames, positions, axes = read_points_csv(path)
+    assert axes is None
     assert names == NAMES and frames.tolist() == [3, 4, 5, 7, 9]     # sorted
     np.testing.assert_allclose(positions, x[[1, 2, 3, 4, 0]], rtol=0, atol=5e-7)
     assert np.isnan(positions[0, 0]).all()                           # frame 3's head: no value
@@ -90,7 +91,8 @@ def test_references_in_every_layout_are_read_in_mm(tmp_path, header, scale):
             rows.append([cells[_key(h)] for h in header])
     rows.insert(2, [])                                               # a blank line is skipped
     path = _write_rows(tmp_path / "ref.csv", header, rows, encoding="utf-8-sig")  # with a BOM
-    names, frames, positions = read_points_csv(path)
+    names, frames, positions, axes = read_points_csv(path)
+    assert axes is None
     assert names == ["RHEE", "LHEE"] and frames.tolist() == [10, 12]
     np.testing.assert_allclose(positions, truth[::-1] * scale, rtol=1e-12)
 

@@ -97,7 +97,9 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "joint_std_rad", "search", "trunk_layers", "trunk_particles", "limb_layers",
             "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal",
             "limb_sweep_every", "limb_sweep_gain", "limb_sweep_max_hull",
-            "limb_sweep_samples", "limb_swaps"}
+            "limb_sweep_samples", "limb_swaps",
+            # the tracker's facing check, not the filter's (tests/pose/test_facing.py)
+            "facing_check_every", "facing_margin", "facing_weight"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used
     # the hierarchical search's own options
     hier = config_from_toml("""
