@@ -1,6 +1,7 @@
 """A project's cascading configuration: Pose2Sim's merge rule, frame range and rate, batch lists,
 anipose's nesting."""
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,8 @@ from voxelmocap.io.project_config import merge_configs, trial_config
 from voxelmocap.io.sequence import detect_layout, open_sequence
 from voxelmocap.synth import default_rig_path
 
-DEMO_BATCH = Path("/work/p2s/x/Pose2Sim/Demo_Batch")
+#: The three Config.toml files of Pose2Sim 0.10.49's Demo_Batch, copied unchanged (tests/data/README.md)
+DEMO_BATCH_CONFIGS = Path(__file__).resolve().parents[1] / "data" / "pose2sim_demo_batch"
 
 
 def _rig(n=2) -> Rig:
@@ -141,14 +143,18 @@ def test_anipose_nesting_says_how_deep_the_sessions_lie(tmp_path):
         Project(root)
 
 
-@pytest.mark.skipif(not DEMO_BATCH.is_dir(), reason="Pose2Sim's Demo_Batch not unpacked at /work/p2s")
-def test_pose2sims_demo_batch():
-    project = Project(DEMO_BATCH)
+def test_pose2sims_demo_batch(tmp_path):
+    """Demo_Batch's own Config.toml files (session, Trial_1 all comments, Trial_2 overriding a
+    few keys) in a session of rendered videos: the cascade as Pose2Sim's recursive_update."""
+    root = _p2s_session(tmp_path / "Demo_Batch", {})
+    for folder in (".", "Trial_1", "Trial_2"):
+        shutil.copyfile(DEMO_BATCH_CONFIGS / folder / "Config.toml", root / folder / "Config.toml")
+    project = Project(root)
     kept, left_out = project.batch_trials()
     assert [t.name for t in kept] == ["Trial_1", "Trial_2"] and left_out == []
-    session = trial_config(DEMO_BATCH, DEMO_BATCH).values
-    one = project.config(DEMO_BATCH / "Trial_1")
-    two = project.config(DEMO_BATCH / "Trial_2")
+    session = trial_config(root, root).values
+    one = project.config(root / "Trial_1")
+    two = project.config(root / "Trial_2")
     assert one.values == session  # Trial_1's Config.toml is all comments
     # Trial_2 overrides three [project] keys and four [synchronization] keys, keeps the rest
     assert two.get("project", "multi_person") is True
@@ -159,7 +165,7 @@ def test_pose2sims_demo_batch():
         "filter_cutoff"]
     assert two.get("pose") == session["pose"]
     seq = project.sequence("Trial_2")
-    assert seq.frame_rate == 60.0 and len(seq.frame_numbers) == seq.n_frames
+    assert seq.frame_rate == 60.0 and len(seq.frame_numbers) == seq.n_frames  # the videos' rate
     assert any("multi_person = true" in n for n in seq.notes)
 
 
