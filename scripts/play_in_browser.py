@@ -56,10 +56,16 @@ video.addEventListener("loadeddata", async () => {
   canvas.height = video.videoHeight;
   const ctx = canvas.getContext("2d", {willReadFrequently: true});
   for (const t of seeks) {
-    await new Promise((resolve) => {
-      video.addEventListener("seeked", resolve, {once: true});
-      video.currentTime = t;
-    });
+    // 'seeked' alone may come before the sought frame is presented (a loaded machine drew the
+    // previous seek's frame): wait for the frame callback too, at most 5 s.
+    const seeked = new Promise((resolve) => video.addEventListener("seeked", resolve,
+                                                                   {once: true}));
+    const shown = video.requestVideoFrameCallback
+      ? new Promise((resolve) => video.requestVideoFrameCallback(() => resolve()))
+      : Promise.resolve();
+    video.currentTime = t;
+    await seeked;
+    await Promise.race([shown, new Promise((resolve) => setTimeout(resolve, 5000))]);
     ctx.drawImage(video, 0, 0);
     const data = ctx.getImageData(0, 0, canvas.width, canvas.height).data;
     const columns = new Array(canvas.width).fill(0);
