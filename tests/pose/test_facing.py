@@ -124,9 +124,9 @@ def _cos(a, b):
     return float(facing_direction(a)[0] @ facing_direction(b)[0])
 
 
-def _tracked_from_turned(every, seed=3):
+def _tracked_one_frame(every, turned, seed=3):
     """One tracked frame of a body with bent knees and elbows (voxels rasterised from it, 40 mm),
-    the track started from its turned-round twin: (record, truth)."""
+    the track started from the truth or from its turned-round twin: (record, truth)."""
     from voxelmocap.config import TrackConfig, with_overrides
     from voxelmocap.pose.tracker import BodyTracker
     from voxelmocap.score.likelihood import Measurement, rasterise
@@ -140,36 +140,23 @@ def _tracked_from_turned(every, seed=3):
         "init.settle_steps": 0, "filter.limb_sweep_every": 0,
         "filter.facing_check_every": every})
     tracker = BodyTracker(MODEL, config, seed=np.random.default_rng(seed))
-    tracker.start("the twin", turned_round(MODEL, truth))
+    tracker.start("a start", turned_round(MODEL, truth) if turned else truth)
     return tracker.step(obs, frame=1), truth
 
 
 def test_the_facing_check_turns_a_track_started_the_wrong_way_round():
     """Started facing backwards with limbs swapped, one checked frame faces the right way and
     says so; the same frame unchecked stays turned round (the check, not the filter, did it)."""
-    record, truth = _tracked_from_turned(every=1)
+    record, truth = _tracked_one_frame(every=1, turned=True)
     assert record.note.startswith("turned round")
     assert _cos(record.state, truth) > np.cos(np.radians(45.0))
-    unchecked, _ = _tracked_from_turned(every=0)
+    unchecked, _ = _tracked_one_frame(every=0, turned=True)
     assert unchecked.note == ""
     assert _cos(unchecked.state, truth) < 0.0
 
 
 def test_the_facing_check_leaves_a_track_facing_the_right_way():
     """Started on the truth itself, the turned-round twin does not win: no switch, no note."""
-    from voxelmocap.config import TrackConfig, with_overrides
-    from voxelmocap.pose.tracker import BodyTracker
-    from voxelmocap.score.likelihood import Measurement, rasterise
-
-    truth = random_pose(np.random.default_rng(3), l_knee=1.0, r_knee=0.5, l_elbow=1.2,
-                        r_elbow=0.8, l_hip_flex=0.3)
-    grid = VoxelGrid((truth[0] - 1200.0, truth[1] - 1200.0, 0.0), 40.0, (60, 60, 50))
-    obs = Measurement(rasterise(MODEL, truth[None], grid) > 0, grid)
-    config = with_overrides(TrackConfig(), **{
-        "filter.search": "joint", "filter.layers": 2, "filter.particles": 60,
-        "init.settle_steps": 0, "filter.facing_check_every": 1})
-    tracker = BodyTracker(MODEL, config, seed=np.random.default_rng(3))
-    tracker.start("truth", truth)
-    record = tracker.step(obs, frame=1)
+    record, truth = _tracked_one_frame(every=1, turned=False)
     assert record.note == ""
     assert _cos(record.state, truth) > np.cos(np.radians(20.0))
