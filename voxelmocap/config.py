@@ -335,7 +335,7 @@ class FilterConfig(Section):
                                       "to a power of two)", ge=2)
     limb_swaps: bool = setting(False, "the limb searches first try each pair of limbs exchanged "
                                "(legs crossed onto each other's voxels)")
-    facing_check_every: int = setting(10, "every this many frames, check the estimate against its "
+    facing_check_every: int = setting(0, "every this many frames, check the estimate against its "
                                       "turned-round twin and turn the track round when the twin "
                                       "wins (0 = never)", unit="frames", ge=0)
     facing_margin: float = setting(2.0, "what the twin must win by (likelihood + `facing_weight` × "

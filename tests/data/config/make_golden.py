@@ -1,6 +1,6 @@
 """Write the config golden files: the TOML text of a few configs and the verdict on many probes.
 
-The files in this folder were written by the code of commit bdd05b5 (``voxelmocap/config.py``
+The files in this folder were written by the code of commit c97013a (``voxelmocap/config.py``
 before it became a schema, issue 32, with issue 33's facing keys), so
 ``tests/test_config_schema.py`` holds the schema to the behaviour it replaced. Rerun against
 another checkout with ``PYTHONPATH=<checkout> python tests/data/config/make_golden.py`` (it
