@@ -84,6 +84,9 @@ def test_reads_files_as_easymocap_writes_them(tmp_path, names_block):
      "'K_C1' is not an opencv-matrix"),
     (lambda t: re.sub(r"(R_C1: !!opencv-matrix\n  rows: )3(\n  cols: 1\n  dt: d\n  data: \[)"
                       r"[^,]*, ", r"\g<1>2\g<2>", t), "extri.yml", "'R_C1' has 2 values, expected 3"),
+    # a list at the top (OpenCV's getNode asserted: a traceback; found by the fuzz test)
+    (lambda t: "-", "extri.yml", "not a map of named entries"),
+    (lambda t: "%YAML:1.0\n---\n- 1\n- 2\n", "intri.yml", "not a map of named entries"),
 ])
 def test_bad_files_name_the_file(tmp_path, damage, file, message):
     write_easymocap(_rig(), tmp_path)

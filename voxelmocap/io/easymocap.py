@@ -49,6 +49,9 @@ class _Storage:
             raise InputError(path, f"not an OpenCV YAML file ({_first_line(cause)})") from None
         if not self.fs.isOpened():
             raise InputError(path, "cannot read as an OpenCV YAML file")
+        if not self.fs.root().isMap():
+            # a list or a scalar at the top: OpenCV's getNode asserts instead of answering
+            raise InputError(path, "not a map of named entries (names:, K_<camera>:, R_<camera>: …)")
 
     def names(self) -> list[str]:
         node = self.fs.getNode("names")
