@@ -115,11 +115,9 @@ def _inflate(path, stream: bytes) -> bytes:
                                        f"(at most {MAX_MAT_BYTES / 1e6:.0f} MB are read)")
         pieces, total = [head], len(head)
         rest = inflater.unconsumed_tail
+        # past the stream's end zlib keeps trailing bytes as a tail no call consumes: stop there
         while rest and not inflater.eof:
             piece = inflater.decompress(rest, 1 << 20)
-            if not piece and len(inflater.unconsumed_tail) >= len(rest):
-                # zlib neither consumed nor produced: a damaged stream would loop forever here
-                raise _Stop
             total += len(piece)
             if total > MAX_MAT_BYTES + 16:
                 raise InputError(path, f"a compressed variable inflates to more than "
