@@ -76,13 +76,13 @@ def _track(data, out, *extra):
 @pytest.mark.parametrize("check_space", [True, False], ids=["free-space check", "HDF5 fails"])
 def test_disk_full_mid_run_resumes_bit_identically(walk_dataset, uninterrupted, tmp_path,
                                                    monkeypatch, capsys, check_space):
-    import voxelmocap.io.results as results
+    import voxelmocap.io._result_writer as _result_writer
 
     # The free-space check refuses the third frame; HDF5 itself (check off) meets the full disk
     # only where the file grows: the first frame allocates the chunks the later ones fill.
     fill_at = 3 if check_space else 1
     if not check_space:
-        monkeypatch.setattr(results, "_free_bytes", lambda folder: None)
+        monkeypatch.setattr(_result_writer, "_free_bytes", lambda folder: None)
     real_append = ResultWriter.append
     calls = {"n": 0, "filler": None}
 
@@ -131,11 +131,12 @@ def test_disk_too_full_to_start_leaves_nothing(walk_dataset, tmp_path, capsys):
 _CHILD = textwrap.dedent("""
     import sys
     import numpy as np
+    import voxelmocap.io._result_writer as _result_writer
     import voxelmocap.io.results as results
     from voxelmocap.errors import InputError
     from test_results import make_result
 
-    results._free_bytes = lambda folder: None   # HDF5 meets the full disk itself
+    _result_writer._free_bytes = lambda folder: None   # HDF5 meets the full disk itself
     src = make_result()
     path = sys.argv[1]
     n = 0

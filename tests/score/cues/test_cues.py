@@ -225,7 +225,7 @@ def test_checkpoint_keeps_learnt_references(tmp_path):
     """A tracker restored from a checkpoint (through the result file's packing) steps on exactly
     as the uninterrupted one: the ROI, skin and uniform references travel with the state."""
     from voxelmocap.config import with_overrides
-    from voxelmocap.io.results import _pack_checkpoint, _unpack_checkpoint
+    from voxelmocap.io._result_format import _pack_checkpoint, _unpack_checkpoint
     from voxelmocap.pose.tracker import BodyTracker
 
     model = BodyModel()
