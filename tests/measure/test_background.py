@@ -7,13 +7,8 @@ from scipy import stats
 
 from voxelmocap.config import SilhouetteConfig
 from voxelmocap.errors import InputError
-from voxelmocap.measure.background import (
-    PlateBackground,
-    learn_plates,
-    masked_median,
-    person_component,
-    plate_from_frames,
-)
+from voxelmocap.measure.background import learn_plates, person_component
+from voxelmocap.measure.plate import PlateBackground, masked_median, plate_from_frames
 
 
 def _textured(rng, h=120, w=160):

@@ -62,7 +62,7 @@ def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
     """
     import cv2
 
-    from ..measure.background import camera_at_most
+    from ..measure.plate import camera_at_most
     from ..score.cues.contours import body_mask
 
     states = np.asarray(states, float)

@@ -167,7 +167,8 @@ class MeasurementRunner(MeasurementStage):
     def __init__(self, seq, config: TrackConfig, log=None, *, person_masks=None,
                  plate_body=None):
         from ..grid import VoxelGrid
-        from ..measure.background import learn_plates, plate_from_frames, plates_from_covers
+        from ..measure.background import learn_plates, plates_from_covers
+        from ..measure.plate import plate_from_frames
         from ..measure.silhouette import build_backgrounds
         from ..pose.body_cover import plate_covers_of
 
