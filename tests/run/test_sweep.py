@@ -7,7 +7,7 @@ from voxelmocap.errors import InputError
 from voxelmocap.evaluation import best_cell
 from voxelmocap.io.body_pose_xml import read_body_pose_xml
 from voxelmocap.joints import endpoints_to_landmarks
-from voxelmocap.run.sweep import SweepCell, plan_cells, run_sweep
+from voxelmocap.run.sweep import SweepCell, SweepRequest, plan_cells, run_sweep
 from voxelmocap.viz.plots import plot_sweep_heatmaps
 
 
@@ -68,9 +68,9 @@ def test_best_cell_is_the_cheapest_reaching_the_best():
 
 def test_two_cell_sweep_on_a_local_dask_cluster(walk_dataset, tmp_path):
     out = tmp_path / "sweep"
-    kwargs = dict(layers=[1], particles=[20, 40], voxel_sizes=[40.0], cameras=[3], seeds=1,
-                  frames="1:2", n_workers=2, log=lambda *_: None)
-    csv_path, rows_back = run_sweep(walk_dataset, "S1", "Walking_1", out, **kwargs)
+    request = SweepRequest(walk_dataset, "S1", "Walking_1", out, layers=(1,), particles=(20, 40),
+                           voxel_sizes=(40.0,), cameras=(3,), seeds=1, frames="1:2")
+    csv_path, rows_back = run_sweep(request, n_workers=2, log=lambda *_: None)
     rows = list(csv.DictReader(csv_path.read_text().splitlines()))
     assert [int(r["particles"]) for r in rows] == [20, 40]
     assert all(int(r["frames"]) == 2 for r in rows)
@@ -91,7 +91,7 @@ def test_two_cell_sweep_on_a_local_dask_cluster(walk_dataset, tmp_path):
     stamps = {p: p.stat().st_mtime_ns for p in out.glob("cells/*/score.json")}
     assert len(stamps) == 2
     messages = []
-    run_sweep(walk_dataset, "S1", "Walking_1", out, **dict(kwargs, log=messages.append))
+    run_sweep(request, n_workers=2, log=messages.append)
     assert messages == ["2 cells, 2 already done, 0 to run"]
     assert {p: p.stat().st_mtime_ns for p in out.glob("cells/*/score.json")} == stamps
 

@@ -71,7 +71,7 @@ def _config(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..run.measurement import dump_sequence
+    from ..run.dump import DumpRequest, dump_sequence
 
     cameras = [c.strip() for c in args.cameras.split(",") if c.strip()] if args.cameras else None
     plate_body = None
@@ -81,10 +81,11 @@ def run(args: argparse.Namespace) -> int:
 
         seq = open_sequence(args.dataset, args.subject, args.sequence, cameras=cameras)
         plate_body = tracked_body(args.plate_from, seq, seq.ground_truth())
-    outcome = dump_sequence(args.dataset, args.subject, args.sequence, args.out,
-                            config=_config(args), frames=args.frames, cameras=cameras,
-                            masks=args.masks, ply_dir=args.ply, ply_points=args.ply_points,
-                            progress=not args.no_progress, plate_body=plate_body)
+    request = DumpRequest(args.dataset, args.subject, args.sequence, args.out,
+                          config=_config(args), frames=args.frames, cameras=cameras,
+                          masks=args.masks, ply_dir=args.ply, ply_points=args.ply_points,
+                          plate_body=plate_body)
+    outcome = dump_sequence(request, progress=not args.no_progress)
     per_frame = ", ".join(f"{k} {1000 * v:.1f}" for k, v in outcome.seconds_per_frame.items())
     logger.info(f"wrote {outcome.path} ({len(outcome.frames)} frames); ms per frame: {per_frame}")
     if outcome.ply_dir is not None:

@@ -62,7 +62,7 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..config import config_to_toml, load_config
     from ..io.humaneva import Dataset
-    from ..run.sweep import run_sweep
+    from ..run.sweep import SweepRequest, run_sweep
     from ..viz.plots import plot_sweep_heatmaps
 
     base = config_to_toml(load_config(args.config)) if args.config else None
@@ -70,11 +70,13 @@ def run(args: argparse.Namespace) -> int:
         cameras = _ints(args.cameras)
     else:
         cameras = [len(Dataset(args.dataset).sequence(args.subject, args.sequence).camera_names)]
-    csv_path, rows = run_sweep(
-        args.dataset, args.subject, args.sequence, args.out, layers=_ints(args.layers),
-        particles=_ints(args.particles), voxel_sizes=_floats(args.voxel_size), cameras=cameras,
-        seeds=args.seeds, frames=args.frames, base_config_toml=base, scheduler=args.scheduler,
-        n_workers=args.workers, delta=args.delta, progress=not args.no_progress)
+    request = SweepRequest(
+        args.dataset, args.subject, args.sequence, args.out, layers=tuple(_ints(args.layers)),
+        particles=tuple(_ints(args.particles)), voxel_sizes=tuple(_floats(args.voxel_size)),
+        cameras=tuple(cameras), seeds=args.seeds, frames=args.frames, base_config_toml=base,
+        delta=args.delta)
+    csv_path, rows = run_sweep(request, scheduler=args.scheduler, n_workers=args.workers,
+                               progress=not args.no_progress)
     logger.info("table: %s", csv_path)
     for path in plot_sweep_heatmaps(rows, args.out, tolerance=args.tolerance):
         logger.info("heatmap: %s", path)

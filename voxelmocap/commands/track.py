@@ -187,14 +187,15 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_all(args: argparse.Namespace) -> int:
     """``--all``: every sequence; the summary; exit code 1 if any sequence failed."""
-    from ..run.batch import run_batch
+    from ..run.batch import BatchRequest, run_batch
 
     cameras = [c for c in args.cameras.split(",") if c.strip()] if args.cameras else None
-    summary = run_batch(args.dataset, args.out, config=resolve_config(args), frames=args.frames,
-                        cameras=cameras, seed=args.seed, overwrite=args.overwrite,
-                        scheduler=args.scheduler, n_workers=args.workers,
-                        progress=not args.no_progress, cues_given=bool(args.cues),
-                        calibration=args.calibration)
+    request = BatchRequest(args.dataset, args.out, config=resolve_config(args),
+                           frames=args.frames, cameras=cameras, seed=args.seed,
+                           overwrite=args.overwrite, cues_given=bool(args.cues),
+                           calibration=args.calibration)
+    summary = run_batch(request, scheduler=args.scheduler, n_workers=args.workers,
+                        progress=not args.no_progress)
     logger.info(f"summary: {summary.describe()}")
     for key in summary.done:
         logger.info(f"  done:    {key}")

@@ -17,13 +17,14 @@ failed.
 Items are plain (subject, sequence) pairs — a project's trial is (trial, trial), as
 :func:`voxelmocap.io.sequence.open_sequence` names it — so every layout runs through one loop.
 
->>> summary = run_batch("data", "run", n_workers=2)              # doctest: +SKIP
+>>> summary = run_batch(BatchRequest("data", "run"), n_workers=2)   # doctest: +SKIP
 >>> summary.describe()                                           # doctest: +SKIP
 '3 done, 0 skipped, 0 failed'
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,7 +33,7 @@ from ..config import TrackConfig, config_from_toml, config_to_toml
 from ..errors import InputError
 from ..logs import emit, run_started
 
-__all__ = ["BatchItem", "BatchSummary", "dataset_items", "result_is_done", "run_batch",
+__all__ = ["BatchItem", "BatchRequest", "BatchSummary", "dataset_items", "result_is_done", "run_batch",
            "track_item"]
 
 logger = logging.getLogger(__name__)
@@ -152,9 +153,50 @@ def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) 
     return str(attrs.get("config")) == config_to_toml(final)
 
 
-def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None, cameras=None,
-               seed: int = 0, overwrite: bool = False, progress: bool = False,
-               cues_given: bool = False, calibration=None) -> dict:
+@dataclass(frozen=True)
+class BatchRequest:
+    """What every item of a batch shares (see :func:`run_batch`).
+
+    Attributes
+    ----------
+    dataset : str or os.PathLike
+        HumanEva-layout data set, or a Pose2Sim, anipose, EasyMocap or FreeMoCap project.
+    out_dir : str or os.PathLike
+        The run folder ``RUN`` (results under ``RUN/<Subject>/``, a project's under
+        ``RUN/<trial>/``).
+    config : TrackConfig
+        Settings of every sequence.
+    frames : str or None
+        ``"a:b"`` applied to every sequence (default: each one's frames with ground truth, or
+        all of them; a Pose2Sim trial's: its ``[project] frame_range``).
+    cameras : list of str or None
+        Cameras of every sequence (default: each one's all).
+    seed : int
+        Seed of every sequence's filter.
+    overwrite : bool
+        Track complete results again, replacing them.
+    cues_given : bool
+        The cues were chosen (``track --all --cues``): a later tracking pass keeps them.
+    calibration : str or os.PathLike or None
+        Project only: a calibration file for every trial instead of the project's own.
+    """
+
+    dataset: object
+    out_dir: object
+    config: TrackConfig = field(default_factory=TrackConfig)
+    frames: str | None = None
+    cameras: list | None = None
+    seed: int = 0
+    overwrite: bool = False
+    cues_given: bool = False
+    calibration: object = None
+
+    def __post_init__(self):
+        if self.config is None:
+            object.__setattr__(self, "config", TrackConfig())
+
+
+def track_item(item: BatchItem, request: BatchRequest, progress: bool = False) -> dict:
     """Track one item (runs in a Dask worker or here); a short description of its result.
 
     The run's messages are appended to ``RUN/voxelmocap.log``, each prefixed with the item's
@@ -163,41 +205,27 @@ def track_item(item: BatchItem, dataset, out_dir, config_toml: str, frames=None,
     from ..logs import task_log
     from .pipeline import track_sequence
 
-    with task_log(Path(out_dir) / "voxelmocap.log", item.key):
-        outcome = track_sequence(dataset, item.subject, item.sequence, out_dir,
-                                 config=config_from_toml(config_toml), frames=frames,
-                                 cameras=cameras, seed=seed, resume=not overwrite,
-                                 overwrite=overwrite, progress=progress,
-                                 cues_given=cues_given, calibration=calibration)
+    r = request
+    with task_log(Path(r.out_dir) / "voxelmocap.log", item.key):
+        outcome = track_sequence(r.dataset, item.subject, item.sequence, r.out_dir,
+                                 config=r.config, frames=r.frames, cameras=r.cameras,
+                                 seed=r.seed, resume=not r.overwrite, overwrite=r.overwrite,
+                                 progress=progress, cues_given=r.cues_given,
+                                 calibration=r.calibration)
     return {"result": str(outcome.result_path), "frames": len(outcome.frames),
             "seconds_per_frame": outcome.seconds_per_frame,
             "resumed_from": outcome.resumed_from}
 
 
-def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=None,
-              cameras=None, seed: int = 0, overwrite: bool = False, scheduler: str | None = None,
+def run_batch(request: BatchRequest, *, scheduler: str | None = None,
               n_workers: int | None = None, progress: bool = True, items=None,
-              log=None, cues_given: bool = False, calibration=None) -> BatchSummary:
-    """Track every item (default: :func:`dataset_items`) into ``out_dir``; what happened.
+              log=None) -> BatchSummary:
+    """Track every item (default: :func:`dataset_items`) into ``request.out_dir``; what happened.
 
     Parameters
     ----------
-    dataset : str or os.PathLike
-        HumanEva-layout data set, or a Pose2Sim, anipose, EasyMocap or FreeMoCap project.
-    out_dir : str or os.PathLike
-        The run folder ``RUN`` (results under ``RUN/<Subject>/``, a project's under
-        ``RUN/<trial>/``).
-    config : TrackConfig, optional
-        Settings of every sequence.
-    frames : str, optional
-        ``"a:b"`` applied to every sequence (default: each one's frames with ground truth, or
-        all of them; a Pose2Sim trial's: its ``[project] frame_range``).
-    cameras : list of str, optional
-        Cameras of every sequence (default: each one's all).
-    seed : int
-        Seed of every sequence's filter.
-    overwrite : bool
-        Track complete results again, replacing them.
+    request : BatchRequest
+        The data, the run folder and the settings every sequence shares.
     scheduler : str, optional
         Address of a running Dask scheduler.
     n_workers : int, optional
@@ -206,32 +234,28 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
     progress : bool
         Progress bars (per frame when running here, per sequence on Dask).
     items : list of BatchItem, optional
-        The sequences (default: every sequence with videos in ``dataset``).
+        The sequences (default: every sequence with videos in ``request.dataset``).
     log : callable, optional
         Also receives the ``voxelmocap.run.batch`` logger's messages.
-    cues_given : bool
-        The cues were chosen (``track --all --cues``): a later tracking pass keeps them.
-    calibration : str or os.PathLike, optional
-        Project only: a calibration file for every trial instead of the project's own.
     """
     from ..io._atomic import ensure_output_dir
     from .tasks import run_tasks
 
     if n_workers is not None and n_workers < 1:  # before anything is created
         raise InputError("--workers", f"must be at least 1, got {n_workers}")
-    config = config or TrackConfig()
+    r = request
     left_out: list[str] = []
-    items = dataset_items(dataset, calibration, left_out) if items is None else list(items)
+    items = dataset_items(r.dataset, r.calibration, left_out) if items is None else list(items)
     if left_out:
         emit(logger, log, f"left out ([project] exclude_from_batch): {', '.join(left_out)}")
-    config_toml = config_to_toml(config)
-    out_dir = Path(out_dir)
+    config_toml = config_to_toml(r.config)
+    out_dir = Path(r.out_dir)
     ensure_output_dir(out_dir)
     summary = BatchSummary()
     todo = []
     for item in items:
-        if not overwrite and result_is_done(item.result_path(out_dir), config_toml, seed,
-                                            cues_given):
+        if not r.overwrite and result_is_done(item.result_path(out_dir), config_toml, r.seed,
+                                              r.cues_given):
             summary.skipped.append(item.key)
         else:
             todo.append(item)
@@ -240,11 +264,14 @@ def run_batch(dataset, out_dir, *, config: TrackConfig | None = None, frames=Non
     if todo:
         run_started()
     here = scheduler is None and n_workers is None
-    root, out = str(Path(dataset).resolve()), str(out_dir.resolve())
-    calibration = None if calibration is None else str(Path(calibration).resolve())
+    # the workers see absolute paths and the configuration as its TOML text (what the result
+    # records): a worker may run in another folder, and on another machine
+    resolved = dataclasses.replace(
+        r, dataset=str(Path(r.dataset).resolve()), out_dir=str(out_dir.resolve()),
+        config=config_from_toml(config_toml),
+        calibration=None if r.calibration is None else str(Path(r.calibration).resolve()))
     tasks = [(f"track-{item.subject}-{item.sequence}", track_item,
-              (item, root, out, config_toml, frames, cameras, seed, overwrite,
-               progress and here, cues_given, calibration)) for item in todo]
+              (item, resolved, progress and here)) for item in todo]
     by_key = {task[0]: item for task, item in zip(tasks, todo, strict=True)}
 
     def finished(outcome) -> None:  # as each sequence ends, not when all have

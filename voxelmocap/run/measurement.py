@@ -1,11 +1,11 @@
-"""Measurement runners: the measurement stage of a sequence on disk, and ``voxelmocap dump``.
+"""The measurement runner: the measurement stage of a sequence on disk.
 
 :class:`MeasurementRunner` is the :class:`~voxelmocap.measure.stage.MeasurementStage` of one
 HumanEva-layout sequence: it reads the background videos once (the only file access), learns the
 background models, derives the grid, and then measures frames like any stage, saying through its
 ``log`` what it notices (a frame with no person in view, a camera with no picture).
-:func:`dump_sequence` runs it over a sequence and writes every volume to an HDF5 voxel dump
-(:mod:`voxelmocap.io.voxels`) and optionally PLY files, for inspection.
+:func:`voxelmocap.run.dump.dump_sequence` runs it over a sequence and writes every volume to an
+HDF5 voxel dump (:mod:`voxelmocap.io.voxels`) and optionally PLY files, for inspection.
 
 Only this module, :mod:`voxelmocap.run.pipeline`, :mod:`voxelmocap.io` and the command line touch files.
 
@@ -18,9 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import time
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +30,7 @@ from ..logs import emit
 from ..measure.observation import VoxelObservation
 from ..measure.stage import MeasurementStage
 
-__all__ = ["DumpOutcome", "MeasurementRunner", "dump_sequence", "learns_plate", "person_grid"]
+__all__ = ["MeasurementRunner", "learns_plate", "person_grid"]
 
 #: Top (mm) of the coarse box carved to learn a plate or place the grid: a raised hand.
 COARSE_HEIGHT_MM = 2500.0
@@ -435,125 +433,3 @@ def _placed(grid, margin: float) -> str:
 
 def _list(frames: list[int], n: int = 10) -> str:
     return ", ".join(str(f) for f in frames[:n]) + (" …" if len(frames) > n else "")
-
-
-@dataclass
-class DumpOutcome:
-    """What :func:`dump_sequence` wrote."""
-
-    path: Path  #: the HDF5 voxel dump
-    frames: np.ndarray  #: (F,) synchronised frame numbers dumped
-    ply_dir: Path | None  #: the folder of PLY files, when asked for
-    seconds_per_frame: dict  #: mean seconds per frame of ``decode``, ``subtract``, ``carve``, …
-    summary: str | None  #: :meth:`MeasurementRunner.summary` of the run
-
-
-def dump_sequence(dataset_root, subject: str, sequence: str, out, *,
-                  config: TrackConfig | None = None, frames: str | None = None, cameras=None,
-                  masks: bool = False, ply_dir=None, ply_points: bool = False,
-                  progress: bool = True, log=None, trial: str | None = None,
-                  plate_body=None) -> DumpOutcome:
-    """Measure the frames of one sequence and write every volume to a voxel dump.
-
-    Parameters
-    ----------
-    dataset_root : str or os.PathLike
-        HumanEva-layout data set.
-    subject, sequence : str
-        E.g. ``"S1"``, ``"Walking_1"``.
-    out : str or os.PathLike
-        The ``.h5`` file to write (atomically: complete, or not at all).
-    config : TrackConfig, optional
-        ``config.measurement`` is used, as ``track`` uses it.
-    frames : str, optional
-        ``"a:b"`` or ``"a,b,c"`` synchronised frames (default: all).
-    cameras : list of str, optional
-        Cameras to use (default: all with sync files).
-    masks : bool
-        Also store the silhouettes.
-    ply_dir : str or os.PathLike, optional
-        Also write ``ply_dir/frame_<F>.ply`` per frame.
-    ply_points : bool
-        PLY as a point cloud of voxel centres instead of an Open3D voxel grid.
-    progress : bool
-        Show a progress bar.
-    log : callable, optional
-        Also receives every one-line message (they go to the logger in any case).
-    trial : str, optional
-        Project trial (a Pose2Sim / anipose / EasyMocap project, :func:`~voxelmocap.io.sequence.
-        open_sequence`; default its only trial).
-    plate_body : voxelmocap.pose.body_cover.TrackedBody, optional
-        A run's body in this sequence (:func:`voxelmocap.run.pipeline.tracked_body`, which
-        ``dump --plate-from`` reads): the plate learnt from the sequence takes it for the person,
-        as ``track --plate-from`` and a final tracking pass do, so the dump shows what that pass
-        measured.
-
-    Returns
-    -------
-    DumpOutcome
-
-    Raises
-    ------
-    InputError
-        Unreadable data, bad frames, an output that is not an ``.h5`` file name or names a folder,
-        a PLY folder that is a file.
-    """
-    from ..config import config_to_toml
-    from ..frames import parse_frame_range
-    from ..io.sequence import open_sequence
-    from ..io.voxels import VoxelDumpWriter, write_ply
-
-    config = config or TrackConfig()
-    out = Path(out)
-    if out.suffix.lower() not in (".h5", ".hdf5"):
-        raise InputError(out, "expected an .h5 file name")
-    if out.is_dir():
-        raise InputError(out, "is a folder; give an .h5 file name")
-    ply_dir = Path(ply_dir) if ply_dir is not None else None
-    if ply_dir is not None and ply_dir.exists() and not ply_dir.is_dir():
-        raise InputError(ply_dir, "exists and is not a folder")
-    seq = open_sequence(dataset_root, subject, sequence, trial=trial, cameras=cameras)
-    for problem in seq.problems:  # cameras the data set has but this run cannot use
-        emit(logger, log, problem, logging.WARNING)
-    selected = parse_frame_range(frames, seq.frame_numbers) if frames else seq.frame_numbers
-    if len(selected) == 0:
-        raise InputError(f"{seq.subject}/{seq.name}", "no frames to dump")
-
-    runner = MeasurementRunner(seq, config, log=log, plate_body=plate_body)
-    grid = runner.grid
-    emit(logger, log, f"{seq.subject}/{seq.name}: {len(selected)} frames, cameras "
-                      f"{','.join(seq.camera_names)}, grid {grid.shape[0]}x{grid.shape[1]}x"
-                      f"{grid.shape[2]} at {grid.voxel_size:g} mm")
-    attrs = {"dataset": str(Path(dataset_root).resolve()), "subject": seq.subject,
-             "sequence": seq.name, "config": config_to_toml(config),
-             "surface_sigma": float(config.measurement.surface_sigma),
-             "plate_from": "" if plate_body is None else plate_body.source}
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(selected), desc=f"{seq.subject}/{seq.name}", unit="frame",
-                   dynamic_ncols=True)
-    totals = {"decode": 0.0}
-    t_decode = time.perf_counter()
-    try:
-        with VoxelDumpWriter(out, grid, cameras=list(seq.rig), attrs=attrs) as writer:
-            for number, images in seq.frames(selected):
-                totals["decode"] += time.perf_counter() - t_decode
-                obs = runner.measure(images, frame=number)
-                for key, value in obs.timings.items():
-                    totals[key] = totals.get(key, 0.0) + value
-                writer.write(int(number), obs.occupancy, surface=obs.surface,
-                             smoothed=obs.smoothed, masks=obs.masks if masks else None)
-                if ply_dir is not None:
-                    write_ply(ply_dir / f"frame_{int(number):05d}.ply", grid, obs.occupancy,
-                              points=ply_points)
-                if bar is not None:
-                    bar.update(1)
-                t_decode = time.perf_counter()
-    finally:
-        if bar is not None:
-            bar.close()
-    n = len(selected)
-    return DumpOutcome(out, np.asarray(selected), ply_dir, {k: v / n for k, v in totals.items()},
-                       runner.summary())

@@ -20,6 +20,7 @@ scheduler address (``dask[distributed]`` is the optional ``distributed`` extra).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import itertools
 import json
@@ -32,7 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..logs import emit, run_started
 
-__all__ = ["SweepCell", "collect_rows", "plan_cells", "run_cell", "run_sweep",
+__all__ = ["SweepCell", "SweepRequest", "collect_rows", "plan_cells", "run_cell", "run_sweep",
            "write_table"]
 
 logger = logging.getLogger(__name__)
@@ -74,8 +75,48 @@ def plan_cells(layers, particles, voxel_sizes, cameras, seeds: int) -> list[Swee
                                                          range(seeds))]
 
 
-def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, frames=None,
-             base_config_toml: str | None = None, delta: float = 100.0) -> dict:
+@dataclass(frozen=True)
+class SweepRequest:
+    """One sweep: the sequence, the settings crossed, and what every cell shares.
+
+    Attributes
+    ----------
+    dataset, subject, sequence
+        HumanEva-layout data set root and sequence (it needs ground truth).
+    out_dir : str or os.PathLike
+        The sweep folder ``SWEEP``.
+    layers, particles, voxel_sizes, cameras : sequence of int or float
+        Annealing layers, particles per layer, voxel sizes (mm) and numbers of cameras crossed.
+    seeds : int
+        Replicates of every combination (each with its own seed, :attr:`SweepCell.seed`).
+    frames : str or None
+        ``"a:b"`` synchronised frames of every cell.
+    base_config_toml : str or None
+        The configuration the cells' settings override (TOML text; None: the defaults).
+    delta : float
+        MMTA threshold (mm).
+    """
+
+    dataset: object
+    subject: str
+    sequence: str
+    out_dir: object
+    layers: tuple
+    particles: tuple
+    voxel_sizes: tuple = (20.0,)
+    cameras: tuple = (7,)
+    seeds: int = 1
+    frames: str | None = None
+    base_config_toml: str | None = None
+    delta: float = 100.0
+
+    def cells(self) -> list[SweepCell]:
+        """Every cell of this sweep (:func:`plan_cells`)."""
+        return plan_cells(self.layers, self.particles, self.voxel_sizes, self.cameras,
+                          self.seeds)
+
+
+def run_cell(cell: SweepCell, request: SweepRequest) -> dict:
     """Track and evaluate one cell (runs in a worker); returns its table row."""
     from ..config import TrackConfig, config_from_toml, with_overrides
     from ..io._atomic import atomic_write_text
@@ -84,6 +125,8 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
     from ..logs import task_log
     from .pipeline import track_sequence
 
+    dataset, subject, sequence = request.dataset, request.subject, request.sequence
+    out_dir, base_config_toml = request.out_dir, request.base_config_toml
     cell_dir = Path(out_dir) / "cells" / cell.name
     score_path = cell_dir / "score.json"
     if score_path.exists():
@@ -99,10 +142,10 @@ def run_cell(cell: SweepCell, dataset, subject: str, sequence: str, out_dir, fra
     cameras = seq.camera_names[: cell.n_cameras]
     with task_log(Path(out_dir) / "voxelmocap.log", cell.name):  # the worker's lines, too
         outcome = track_sequence(dataset, subject, sequence, cell_dir / "run", config=config,
-                                 frames=frames, cameras=cameras, seed=cell.seed,
+                                 frames=request.frames, cameras=cameras, seed=cell.seed,
                                  progress=False, overwrite=True)
     scored = score_against(outcome.result_path, seq.ground_truth_path or seq.ground_truth(),
-                           delta=delta)
+                           delta=request.delta)
     row = dict(asdict(cell), seed=cell.seed, cameras=",".join(cameras),
                frames=scored.scores.frames, mu_mm=scored.scores.mu_mm,
                sigma_mm=scored.scores.sigma_mm, mmtp_mm=scored.scores.mmtp_mm,
@@ -164,11 +207,9 @@ def _check_settings(out_dir: Path, settings: dict) -> None:
     atomic_write_text(path, json.dumps(settings, indent=1) + "\n")
 
 
-def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particles,
-              voxel_sizes=(20.0,), cameras=(7,), seeds: int = 1, frames=None,
-              base_config_toml: str | None = None, scheduler: str | None = None,
-              n_workers: int | None = None, delta: float = 100.0,
-              log=None, progress: bool = True) -> tuple[Path, list[dict]]:
+def run_sweep(request: SweepRequest, *, scheduler: str | None = None,
+              n_workers: int | None = None, log=None,
+              progress: bool = True) -> tuple[Path, list[dict]]:
     """Run (or complete) a sweep; returns the CSV path and the table rows (one dict per cell).
 
     The cells run as tasks of :func:`voxelmocap.run.tasks.run_tasks` (a local Dask cluster of
@@ -179,23 +220,25 @@ def run_sweep(dataset, subject: str, sequence: str, out_dir, *, layers, particle
     from ..io.humaneva import Dataset
     from .tasks import run_tasks
 
-    seq = Dataset(dataset).sequence(subject, sequence)
+    r = request
+    seq = Dataset(r.dataset).sequence(r.subject, r.sequence)
     if seq.ground_truth_source is None:
-        raise InputError(f"{subject}/{sequence}", "a sweep needs ground truth to score cells")
-    if max(cameras) > len(seq.camera_names):
+        raise InputError(f"{r.subject}/{r.sequence}", "a sweep needs ground truth to score cells")
+    if max(r.cameras) > len(seq.camera_names):
         raise InputError("--cameras", f"at most {len(seq.camera_names)} cameras in this sequence")
-    out_dir = Path(out_dir)
-    _check_settings(out_dir, {"dataset": str(Path(dataset).resolve()), "subject": seq.subject,
-                              "sequence": seq.name, "frames": frames, "delta_mm": delta,
-                              "config": base_config_toml or ""})
+    out_dir = Path(r.out_dir)
+    _check_settings(out_dir, {"dataset": str(Path(r.dataset).resolve()), "subject": seq.subject,
+                              "sequence": seq.name, "frames": r.frames, "delta_mm": r.delta,
+                              "config": r.base_config_toml or ""})
     run_started()  # the sweep folder holds its settings: its log file is written from now on
-    cells = plan_cells(layers, particles, voxel_sizes, cameras, seeds)
+    cells = r.cells()
     todo = [c for c in cells if not (out_dir / "cells" / c.name / "score.json").exists()]
     emit(logger, log, f"{len(cells)} cells, {len(cells) - len(todo)} already done, "
                       f"{len(todo)} to run")
-    root = str(Path(dataset).resolve())
-    run_tasks([(f"cell-{c.name}", run_cell, (c, root, subject, sequence, str(out_dir.resolve()),
-                                             frames, base_config_toml, delta)) for c in todo],
+    # the workers see absolute paths: they may run in another folder
+    resolved = dataclasses.replace(r, dataset=str(Path(r.dataset).resolve()),
+                                   out_dir=str(out_dir.resolve()))
+    run_tasks([(f"cell-{c.name}", run_cell, (c, resolved)) for c in todo],
               scheduler=scheduler, n_workers=n_workers, stop_on_error=True, progress=progress,
               desc="sweep")
     rows = collect_rows(out_dir)
