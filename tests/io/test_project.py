@@ -12,7 +12,8 @@ from project_fixture import make_project, qca_rig, renamed, write_frames
 from voxelmocap.errors import InputError
 from voxelmocap.io.calibration import read_rig, write_calibration_toml
 from voxelmocap.io.humaneva import Dataset
-from voxelmocap.io.project import Project, match_cameras
+from voxelmocap.io.project import Project
+from voxelmocap.io.project_checks import match_cameras
 from voxelmocap.io.sequence import detect_layout, open_sequence
 from voxelmocap.synth import default_rig_path
 
@@ -289,7 +290,7 @@ def test_video_decoder_reads_mp4_mov_and_avi(tmp_path):
 
 def test_world_frame_notes():
     from voxelmocap.camera import Rig
-    from voxelmocap.io.project import world_frame_notes
+    from voxelmocap.io.project_checks import world_frame_notes
 
     rig = read_rig(default_rig_path())
     assert world_frame_notes(rig) == []

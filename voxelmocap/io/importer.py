@@ -134,7 +134,7 @@ def _import(seq, out, *, subject: str, action: str | None, progress: bool,
 
     Parameters
     ----------
-    seq : voxelmocap.io.project.ProjectSequence or voxelmocap.io.humaneva.Sequence
+    seq : voxelmocap.io.project_sequence.ProjectSequence or voxelmocap.io.humaneva.Sequence
         The sequence (:func:`voxelmocap.io.sequence.open_sequence`).
     out : str or os.PathLike
         The data set root to write (created; an existing sequence of the same name is refused).

@@ -77,7 +77,7 @@ def open_sequence(path, subject: str | None = None, sequence: str | None = None,
 
     Returns
     -------
-    voxelmocap.io.humaneva.Sequence or voxelmocap.io.project.ProjectSequence
+    voxelmocap.io.humaneva.Sequence or voxelmocap.io.project_sequence.ProjectSequence
     """
     kind = detect_layout(path)
     if kind == "humaneva":

@@ -1,7 +1,7 @@
 """Frame access over synchronised camera videos, shared by every sequence layout.
 
 :class:`SynchronisedVideos` is the mix-in of :class:`voxelmocap.io.humaneva.Sequence` and
-:class:`voxelmocap.io.project.ProjectSequence`: per camera a
+:class:`voxelmocap.io.project_sequence.ProjectSequence`: per camera a
 :class:`~voxelmocap.io.video.VideoStream` and the 1-based video frame (``starts``) that shows
 synchronised frame 1.
 """
