@@ -12,7 +12,7 @@ missing) is tracked *without the answer* (its ``Mocap_Data`` left out of a linke
 Part 2 (``--compare``): clips of the rendered benchmark set (``--bench-data``, 7 cameras, 100
 frames) tracked without the answer with ``apf`` and ``iapf`` (the detector proposal, 20 % of
 layer 1), one seed each, with μ, MMTA and frames per second; plus the detector proposal's cost
-per frame (:func:`voxelmocap.pose.recovery.detector_proposal` timed on every frame of the first clip,
+per frame (:func:`voxelmocap.pose.proposal.detector_proposal` timed on every frame of the first clip,
 warm-started from the tracked estimate of the frame before).
 
 Usage::
@@ -103,7 +103,7 @@ def proposal_cost(bench: Path, out: Path, action: str, seed: int) -> dict:
     """Median ms of one detector proposal per frame (warm start: the apf run's estimates)."""
     from voxelmocap.body import BodyModel
     from voxelmocap.pose.filter_setup import noise_profile
-    from voxelmocap.pose.recovery import detector_proposal
+    from voxelmocap.pose.proposal import detector_proposal
     from voxelmocap.run.measurement import MeasurementRunner
 
     index = [a for _, a, _ in CLIPS].index(action)

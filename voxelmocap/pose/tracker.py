@@ -108,7 +108,7 @@ class BodyTracker:
         self.observers: list[Observer] = list(observers)
         self._settle = 0  # settling steps still due on the next frame (see settle)
         #: the IAPF proposal of the next frame when set (a re-initialisation's hypotheses), and
-        #: the last one used (``voxelmocap.pose.recovery.MixtureProposal``)
+        #: the last one used (``voxelmocap.pose.proposal.MixtureProposal``)
         self.pending_proposal = None
         self.last_proposal = None
         self._recovery = None
@@ -497,7 +497,7 @@ class BodyTracker:
     def proposal(self, observation) -> dict:
         """The IAPF's detector proposal for this frame, as ``AnnealedParticleFilter.step`` options.
 
-        :func:`voxelmocap.pose.recovery.detector_proposal` around the latest estimate (or the mean of
+        :func:`voxelmocap.pose.proposal.detector_proposal` around the latest estimate (or the mean of
         the particles right after a start), or the pending re-initialisation mixture; its
         log-density is passed (importance correction) only with ``recovery.proposal_correction``.
         """
@@ -514,8 +514,8 @@ class BodyTracker:
 
     def detector_mixture(self, observation, previous):
         """The frame's detector proposal around ``previous`` (27,): the extremities of the
-        voxels fitted by inverse kinematics (:func:`voxelmocap.pose.recovery.detector_proposal`)."""
-        from .recovery import detector_proposal
+        voxels fitted by inverse kinematics (:func:`voxelmocap.pose.proposal.detector_proposal`)."""
+        from .proposal import detector_proposal
 
         rc = self.config.recovery
         mix = detector_proposal(observation, self.model, std=rc.proposal_spread * self.noise_std,

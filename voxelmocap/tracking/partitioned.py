@@ -126,7 +126,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
             for ``k > 0`` they equal ``reference`` outside partition ``k``.
         proposal : callable, optional
             ``proposal(n, rng) -> (n, D)``: an importance function of this frame (e.g. a
-            detector's, :class:`voxelmocap.pose.recovery.MixtureProposal`). ``proposal_share`` of the
+            detector's, :class:`voxelmocap.pose.proposal.MixtureProposal`). ``proposal_share`` of the
             first layer's particles of every partition after the first take their partition's
             dimensions from it (the IAPF's mixing, Fontmarty et al. Table I, without the
             importance correction), so that a limb the dynamics lost can jump back.
