@@ -75,11 +75,18 @@ def compare_files(ref, new, *, prefix: str = "") -> bool:
 
 
 def _cli(python: str, pythonpath: str | None, args: list[str]) -> None:
-    env = dict(os.environ)
-    if pythonpath:
-        env["PYTHONPATH"] = str(Path(pythonpath).resolve())
+    env, cwd = dict(os.environ), None
     code = "import sys; from voxelmocap.cli import main; sys.exit(main(sys.argv[1:]))"
-    subprocess.run([python, "-c", code, *args], check=True, env=env)
+    if pythonpath:
+        root = Path(pythonpath).resolve()
+        env["PYTHONPATH"], cwd = str(root), root
+        # "python -c" puts its working folder first on sys.path: run it in the checkout, and
+        # refuse to go on if another copy of the package is imported (an editable install's
+        # finder, a stray folder)
+        code = ("import sys, voxelmocap; from pathlib import Path; "
+                f"assert Path(voxelmocap.__file__).resolve().is_relative_to({str(root)!r}), "
+                "voxelmocap.__file__; " + code)
+    subprocess.run([python, "-c", code, *args], check=True, env=env, cwd=cwd)
 
 
 def make(out: Path, python: str, pythonpath: str | None) -> None:
@@ -131,7 +138,7 @@ def main(argv=None) -> int:
         c.add_argument("candidate", type=Path)
         args = parser.parse_args(argv)
         if args.what == "make":
-            make(args.out, args.python, args.pythonpath)
+            make(args.out.resolve(), args.python, args.pythonpath)
             return 0
         ok = compare(args.reference, args.candidate)
     print("bit-identical" if ok else "NOT bit-identical")
