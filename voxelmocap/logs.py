@@ -40,7 +40,8 @@ import time
 from pathlib import Path
 
 __all__ = ["LOG_NAME", "NO_PROGRESS_HELP", "ConsoleHandler", "RunLogHandler", "configure",
-           "emit", "finish", "progress_to_terminal", "run_started", "task_log", "unconfigure"]
+           "duration", "emit", "finish", "progress_to_terminal", "run_started", "task_log",
+           "unconfigure"]
 
 #: The log file's name inside the run folder.
 LOG_NAME = "voxelmocap.log"
@@ -309,3 +310,15 @@ def emit(logger: logging.Logger, callback, message: str, level: int = logging.IN
     logger.log(level, message)
     if callback is not None:
         callback(f"warning: {message}" if level >= logging.WARNING else message)
+
+
+def duration(seconds: float) -> str:
+    """A wall time as a person reads it: ``"42.3 s"``, ``"12 min 5 s"``, ``"1 h 3 min"``."""
+    seconds = float(seconds)
+    if seconds < 60:
+        return f"{seconds:.1f} s"
+    minutes, secs = divmod(int(round(seconds)), 60)
+    if minutes < 60:
+        return f"{minutes} min {secs} s"
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours} h {minutes} min"

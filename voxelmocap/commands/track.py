@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import time
 
 from ..logs import NO_PROGRESS_HELP
 
@@ -124,6 +125,8 @@ def resolve_config(args):
 def run(args: argparse.Namespace) -> int:
     from ..errors import InputError
 
+    started = time.perf_counter()  # the closing line's rate is the whole command's
+
     if args.all:
         for name in ("subject", "sequence", "trial", "rerun", "masks", "plate_from"):
             if getattr(args, name):
@@ -170,8 +173,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if recorder is not None:
             recorder.abort()  # a failed run leaves no recording (no-op once closed)
-    logger.info(f"tracked {len(outcome.frames)} frames ({outcome.frames[0]}–"
-                f"{outcome.frames[-1]}), {1.0 / outcome.seconds_per_frame:.2f} frames/s")
+    logger.info(_closing_line(outcome, time.perf_counter() - started))
     logger.info(f"results: {outcome.result_path}")
     logger.info(f"         {outcome.xml_path}")
     logger.info(f"         {outcome.bvh_path}")
@@ -183,6 +185,19 @@ def run(args: argparse.Namespace) -> int:
         logger.warning(f"no recording written to {recorder.path}: nothing was tracked (the "
                        "result was complete; --overwrite tracks and records it again)")
     return 0
+
+
+def _closing_line(outcome, wall: float) -> str:
+    """What the command did, at the rate a user waited for it (every pass, plates, starts and
+    exports), beside the last pass's frame loop alone."""
+    from ..logs import duration
+
+    n = len(outcome.frames)
+    new = n - outcome.resumed_from
+    done = f"tracked {new} frames" + ("" if new == n else f" (after {outcome.resumed_from} resumed)")
+    return (f"{done} of {outcome.frames[0]}–{outcome.frames[-1]} in {duration(wall)}: "
+            f"{new / wall:.2f} frames/s for the whole command "
+            f"(the last pass's frame loop {1.0 / outcome.seconds_per_frame:.2f} frames/s)")
 
 
 def _run_all(args: argparse.Namespace) -> int:

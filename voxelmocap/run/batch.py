@@ -26,12 +26,13 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..config import TrackConfig, config_from_toml, config_to_toml
 from ..errors import InputError
-from ..logs import emit, run_started
+from ..logs import duration, emit, run_started
 
 __all__ = ["BatchItem", "BatchRequest", "BatchSummary", "dataset_items", "result_is_done", "run_batch",
            "track_item"]
@@ -206,6 +207,7 @@ def track_item(item: BatchItem, request: BatchRequest, progress: bool = False) -
     from .pipeline import track_sequence
 
     r = request
+    started = time.perf_counter()
     with task_log(Path(r.out_dir) / "voxelmocap.log", item.key):
         outcome = track_sequence(r.dataset, item.subject, item.sequence, r.out_dir,
                                  config=r.config, frames=r.frames, cameras=r.cameras,
@@ -214,7 +216,7 @@ def track_item(item: BatchItem, request: BatchRequest, progress: bool = False) -
                                  calibration=r.calibration)
     return {"result": str(outcome.result_path), "frames": len(outcome.frames),
             "seconds_per_frame": outcome.seconds_per_frame,
-            "resumed_from": outcome.resumed_from}
+            "resumed_from": outcome.resumed_from, "wall_seconds": time.perf_counter() - started}
 
 
 def run_batch(request: BatchRequest, *, scheduler: str | None = None,
@@ -278,9 +280,12 @@ def run_batch(request: BatchRequest, *, scheduler: str | None = None,
         item = by_key[outcome.key]
         if outcome.ok:
             summary.done.append(item.key)
-            emit(logger, log, f"{item.key}: {outcome.value['frames']} frames, "
-                              f"{1.0 / outcome.value['seconds_per_frame']:.2f} frames/s → "
-                              f"{outcome.value['result']}")
+            v = outcome.value
+            tracked = v["frames"] - v["resumed_from"]
+            emit(logger, log, f"{item.key}: {tracked} frames in {duration(v['wall_seconds'])} "
+                              f"({tracked / v['wall_seconds']:.2f} frames/s for the whole "
+                              f"sequence; its last pass's frame loop "
+                              f"{1.0 / v['seconds_per_frame']:.2f} frames/s) → {v['result']}")
         else:
             summary.failed.append((item.key, outcome.error))
             emit(logger, log, f"{item.key} failed: {outcome.error}", logging.WARNING)
