@@ -11,6 +11,7 @@ from voxelmocap.pose.confidence import (
     landmark_confidence,
     landmark_spread,
     landmark_support,
+    searched_spread,
     within_probability,
 )
 
@@ -60,7 +61,52 @@ def test_support_and_confidence_follow_the_parts():
     assert partial[lm.index("pelvis")] == 1.0 and np.isnan(partial[lm.index("head")])
 
 
+def test_searched_spread_of_one_group_over_every_dimension_is_the_particles_spread():
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(15 * 3, 6))
+
+    def landmarks_of(x):
+        return (x @ A.T).reshape(len(x), 15, 3)
+
+    particles = rng.normal(size=(40, 6))
+    w = rng.random(40)
+    w /= w.sum()
+    estimate = rng.normal(size=6)  # unused: every dimension comes from the particles
+    np.testing.assert_allclose(searched_spread(landmarks_of, estimate,
+                                               [(np.arange(6), particles, w)]),
+                               landmark_spread(landmarks_of(particles), w), rtol=1e-12)
+    assert np.isnan(searched_spread(landmarks_of, estimate, [])).all()
+
+
+def test_searched_spread_adds_each_groups_variance_of_a_linear_map():
+    """Landmarks linear in the state: each group's spread² is trace(A_g Σ_g A_gᵀ) per landmark
+    (Σ_g the weighted covariance of its own dimensions), whatever the estimate."""
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(4 * 3, 7))
+
+    def landmarks_of(x):
+        return (x @ A.T).reshape(len(x), 4, 3)
+
+    groups = []
+    for dims in (np.array([0, 1, 2]), np.array([3, 4]), np.array([5, 6])):
+        n = int(rng.integers(20, 60))
+        w = rng.random(n)
+        groups.append((dims, rng.normal(size=(n, len(dims))) * rng.uniform(1, 5), w / w.sum()))
+    expected = np.zeros(4)
+    for dims, own, w in groups:
+        mean = w @ own
+        cov = (own - mean).T @ np.diag(w) @ (own - mean)
+        for m in range(4):
+            rows = A[3 * m: 3 * m + 3][:, dims]
+            expected[m] += np.trace(rows @ cov @ rows.T)
+    for estimate in (np.zeros(7), rng.normal(size=7) * 100):
+        np.testing.assert_allclose(searched_spread(landmarks_of, estimate, groups),
+                                   np.sqrt(expected), rtol=1e-10)
+
+
 def test_tracker_records_spread_and_confidence():
+    """The hierarchical search's spread comes from every partition: no landmark is 0 (the last
+    layer of the step alone moves only the last limb: 13 of 15 landmarks were exactly 0)."""
     from voxelmocap.body import BodyModel
     from voxelmocap.config import TrackConfig, with_overrides
     from voxelmocap.grid import VoxelGrid
@@ -72,12 +118,48 @@ def test_tracker_records_spread_and_confidence():
     truth = model.default_state()
     seen = Measurement(rasterise(model, truth[None], grid) > 0, grid)
     config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 40})
+    assert config.filter.search == "hierarchical"
     tracker = BodyTracker(model, config, seed=0)
     tracker.initialise(seen, model.landmarks(truth[None])[0], frame=1)
     record = tracker.step(seen, frame=1)
     pf = tracker.filter
-    expected = landmark_spread(model.forward(pf.particles).joints, pf.weights)
-    np.testing.assert_array_equal(record.landmark_spread, expected)
+    last_layer = landmark_spread(model.forward(pf.particles).joints, pf.weights)
+    assert np.sum(last_layer < 1e-6) >= 13      # why the last layer alone says little
+    groups = pf.searched
+    assert len(groups) == len(pf.partitions)
+    assert sorted(np.concatenate([g[0] for g in groups]).tolist()) == list(range(27))
+    variance = np.zeros(15)
+    for dims, own, w in groups:                 # the definition, written out
+        states = np.tile(record.state, (len(w), 1))
+        states[:, dims] = own
+        lm = model.forward(states).joints
+        mean = np.einsum("p,pmk->mk", w, lm)
+        variance += np.einsum("p,pm->m", w, np.sum((lm - mean) ** 2, axis=2))
+    np.testing.assert_allclose(record.landmark_spread, np.sqrt(variance), rtol=1e-9)
+    assert np.all(record.landmark_spread > 0)
     np.testing.assert_array_equal(
-        record.confidence, landmark_confidence(expected, record.part_scores, model.part_names))
+        record.confidence,
+        landmark_confidence(record.landmark_spread, record.part_scores, model.part_names))
     assert record.observed is True
+
+
+def test_joint_search_spread_is_the_last_layers():
+    from voxelmocap.body import BodyModel
+    from voxelmocap.config import TrackConfig, with_overrides
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.pose.tracker import BodyTracker
+    from voxelmocap.score.likelihood import Measurement, rasterise
+
+    model = BodyModel()
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 40.0, (50, 50, 50))
+    truth = model.default_state()
+    seen = Measurement(rasterise(model, truth[None], grid) > 0, grid)
+    config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 40,
+                                              "filter.search": "joint"})
+    tracker = BodyTracker(model, config, seed=0)
+    tracker.initialise(seen, model.landmarks(truth[None])[0], frame=1)
+    record = tracker.step(seen, frame=1)
+    pf = tracker.filter
+    np.testing.assert_allclose(record.landmark_spread,
+                               landmark_spread(model.forward(pf.particles).joints, pf.weights),
+                               rtol=1e-12)

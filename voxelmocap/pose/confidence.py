@@ -4,7 +4,9 @@ The annealed particle filter ends every frame with a weighted particle set (its 
 things say how far a landmark of the estimate can be trusted:
 
 * the **spread** of that landmark over the last layer's particles (:func:`landmark_spread`): the
-  weighted root-mean-square distance of the particles' landmark from its weighted mean, in mm.
+  weighted root-mean-square distance of the particles' landmark from its weighted mean, in mm;
+  with the hierarchical search, over the last layer of every partition that moves it, their
+  variances added (:func:`searched_spread`).
   A landmark the voxels pin down (a free hand) collapses to a few mm; one they cannot (a hand
   inside the torso's silhouette, a mirrored leg) stays spread;
 * the **support** of the body parts that meet at the landmark (:data:`LANDMARK_PARTS`): the
@@ -37,7 +39,7 @@ from scipy.special import erf
 from ..joints import LANDMARK_NAMES
 
 __all__ = ["DEFAULT_DELTA_MM", "LANDMARK_PARTS", "landmark_confidence", "landmark_spread",
-           "landmark_support", "within_probability"]
+           "landmark_support", "searched_spread", "within_probability"]
 
 #: δ of the confidence (mm): MMTA's matching threshold (paper 002 §3).
 DEFAULT_DELTA_MM = 100.0
@@ -88,6 +90,44 @@ def landmark_spread(landmarks, weights) -> np.ndarray:
     mean = np.einsum("p,pmk->mk", w, x)
     d2 = np.sum((x - mean) ** 2, axis=2)
     return np.sqrt(np.maximum(w @ d2, 0.0))
+
+
+def searched_spread(landmarks_of, estimate, searched) -> np.ndarray:
+    """Spread of each landmark over what every group of the search was unsure of.
+
+    A hierarchical filter searches the trunk first and then each limb with the rest held
+    (:attr:`voxelmocap.tracking.partitioned.PartitionedParticleFilter.searched`): its last layer
+    varies only the last limb, so :func:`landmark_spread` of it is 0 for every other landmark.
+    Here each group's last layer is put into the estimate (its own dimensions from its particles,
+    the rest at ``estimate``) and the landmarks' spreads of the groups add as variances:
+    ``spread² = Σ_g landmark_spread(group g)²`` — a wrist is as unsure as the trunk that carries
+    it and its arm together. With one group over every dimension (the joint filter) this is
+    :func:`landmark_spread` of its particles.
+
+    Parameters
+    ----------
+    landmarks_of : callable
+        ``(P, D) states -> (P, M, 3)`` landmarks (mm), e.g. the body model's forward kinematics.
+    estimate : (D,) array_like
+        The frame's estimate.
+    searched : list of (dims (K,), particles (P, K), weights (P,))
+        The groups of the search, weights normalised.
+
+    Returns
+    -------
+    (M,) ndarray
+        mm; NaN when ``searched`` is empty.
+    """
+    estimate = np.asarray(estimate, dtype=float)
+    total = None
+    for dims, own, weights in searched:
+        states = np.repeat(estimate[None], len(weights), axis=0)
+        states[:, np.asarray(dims)] = own
+        variance = landmark_spread(landmarks_of(states), weights) ** 2
+        total = variance if total is None else total + variance
+    if total is None:
+        return np.full(np.shape(landmarks_of(estimate[None]))[1], np.nan)
+    return np.sqrt(total)
 
 
 def within_probability(spread, *, delta: float = DEFAULT_DELTA_MM) -> np.ndarray:

@@ -390,7 +390,7 @@ class BodyTracker:
         from ..body import joints_to_endpoints
         from ..body.model import PartGeometry
         from ..score.likelihood import part_scores_of
-        from .confidence import landmark_confidence, landmark_spread
+        from .confidence import landmark_confidence, searched_spread
 
         if not self.initialised:
             raise RuntimeError("BodyTracker.step: call initialise() or set_state() first")
@@ -412,7 +412,7 @@ class BodyTracker:
         kinematics = self.model.forward(est)
         joints = kinematics.joints
         scores = part_scores_of(observation, PartGeometry(kinematics, self.model.parts))[0]
-        spread = landmark_spread(self.model.forward(pf.particles).joints, pf.weights)
+        spread = searched_spread(lambda x: self.model.forward(x).joints, est[0], pf.searched)
         record = FrameRecord(
             frame=int(pf.frame if frame is None else frame),
             state=est[0],

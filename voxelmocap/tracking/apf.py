@@ -242,11 +242,25 @@ class AnnealedParticleFilter:
         return None if self.log_weights is None else Weights(self.log_weights).W
 
     @property
+    def searched(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """What the last step searched: ``[(dims (K,), particles (P, K), weights (P,))]``.
+
+        One entry per group of dimensions searched with the others held: for this joint filter
+        the last layer over every dimension (empty before a step). A caller measuring how
+        uncertain a function of the state is takes each group's spread with the other
+        dimensions at the estimate (:attr:`.partitioned.PartitionedParticleFilter.searched`).
+        """
+        if self.particles is None or self.log_weights is None:
+            return []
+        return [(np.arange(self.dim), self.particles, self.weights)]
+
+    @property
     def history(self) -> np.ndarray:
         """Previous estimates kept for the dynamics, ``(H, D)``, oldest first (``H <= 2``)."""
         return self._history.copy()
 
     def _clear_records(self):
+        self._searched = []  # the partitioned filter's groups of the last step
         self.estimate = None
         self.map_particle = None
         self.map_log_likelihood = None

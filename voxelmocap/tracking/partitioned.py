@@ -111,6 +111,16 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         self._proposal, self._proposal_share = None, 0.0
         self.refine_gains = np.zeros(len(parts))
 
+    @property
+    def searched(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Each partition's last layer in the last step: ``[(dims, particles (P_k, K), W)]``.
+
+        A partition's particles differ only in its own dimensions (the others are shared), so
+        the last layer of the whole step (:attr:`particles`) says nothing of how sure the earlier
+        partitions were; these do, one partition each.
+        """
+        return list(self._searched)
+
     def step(self, log_likelihood, **kwargs):
         raise RuntimeError("PartitionedParticleFilter: call step_partitioned(log_likelihood_for)")
 
@@ -148,6 +158,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         map_state = reference.copy()
         pos = 0
         self.refine_gains = np.zeros(len(self.partitions))
+        searched = []
         for k, part in enumerate(self.partitions):
             dims = np.asarray(part.dims)
             ll = log_likelihood_for(k, reference.copy())
@@ -158,6 +169,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
                 x = np.repeat(reference[None], x.shape[0], axis=0)
                 x[:, dims] = own
             x, w, lls = self._anneal_partition(k, part, x, w, ll, ess, betas, pos)
+            searched.append((dims, x[:, dims], w.W))
             pos += part.layers
             reference[dims] = w.W @ x[:, dims]
             best = int(np.argmax(w.log_w))
@@ -173,6 +185,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         self.log_weights = np.array(w.log_w)
         self.log_likelihoods = lls
         self.layer_ess, self.layer_betas = ess, betas
+        self._searched = searched
         self.estimate = reference
         self.map_particle = map_state
         best = int(np.argmax(w.log_w))

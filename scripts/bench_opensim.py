@@ -1,0 +1,111 @@
+"""OpenSim joint angles of tracked clips against the angles of the rendered ground truth.
+
+For every result ``RUN/<Subject>/<Action>_<Trial>.h5`` a copy is handed to ``voxelmocap export
+--opensim`` (a model scaled to the tracked body, OpenSim inverse kinematics), and the knee and
+hip flexion of the ``.mot`` are compared with the same angles computed in closed form from the
+data set's ground-truth landmarks (``DATA/<Subject>/Mocap_Data/<Action>_<Trial>.xml``): knee =
+the angle between thigh and shank; hip = the thigh's angle from the trunk in the pelvis' sagittal
+plane (``tests/io/test_opensim.py`` checks OpenSim against these definitions on ground truth to
+0.5°). Printed per result: the landmarks' μ, the mean absolute knee and hip flexion error (left /
+right, degrees) and the largest IK marker RMS (mm). Needs the ``opensim`` extra.
+
+Usage::
+
+    python scripts/bench_opensim.py --data DATA --runs RUN [RUN ...]
+
+Feeds docs/benchmarks.md, "Outputs", "OpenSim joint angles".
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from voxelmocap.io.body_pose_xml import read_body_pose_xml
+from voxelmocap.io.results import read_result
+from voxelmocap.joints import LANDMARK_NAMES, endpoints_to_landmarks
+
+_I = {name: i for i, name in enumerate(LANDMARK_NAMES)}
+
+
+def knee_flexion(lm: np.ndarray, side: str) -> np.ndarray:
+    """(F,) degrees from (F, 15, 3) landmarks: the angle between thigh and shank."""
+    thigh = lm[:, _I[f"{side}_knee"]] - lm[:, _I[f"{side}_hip"]]
+    shank = lm[:, _I[f"{side}_ankle"]] - lm[:, _I[f"{side}_knee"]]
+    cos = np.sum(thigh * shank, 1) / np.linalg.norm(thigh, axis=1) / np.linalg.norm(shank, axis=1)
+    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+
+
+def hip_flexion(lm: np.ndarray, side: str) -> np.ndarray:
+    """(F,) degrees: the thigh's angle from the trunk in the pelvis' sagittal plane (Z along
+    the hips, Y the trunk made perpendicular to Z, X = Y × Z; atan2(thigh·X, −thigh·Y))."""
+    z = lm[:, _I["r_hip"]] - lm[:, _I["l_hip"]]
+    z /= np.linalg.norm(z, axis=1, keepdims=True)
+    up = lm[:, _I["thorax"]] - lm[:, _I["pelvis"]]
+    y = up - np.sum(up * z, 1)[:, None] * z
+    y /= np.linalg.norm(y, axis=1, keepdims=True)
+    x = np.cross(y, z)
+    thigh = lm[:, _I[f"{side}_knee"]] - lm[:, _I[f"{side}_hip"]]
+    return np.degrees(np.arctan2(np.sum(thigh * x, 1), -np.sum(thigh * y, 1)))
+
+
+def _table(osim, path: Path) -> dict[str, np.ndarray]:
+    table = osim.TimeSeriesTable(str(path))
+    labels = list(table.getColumnLabels())
+    values = np.array([[table.getRowAtIndex(i)[j] for j in range(len(labels))]
+                       for i in range(table.getNumRows())])
+    return dict(zip(labels, values.T, strict=True))
+
+
+def main() -> None:
+    import opensim as osim
+
+    from voxelmocap.cli import main as cli
+    from voxelmocap.io.opensim import opensim_paths
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", required=True)
+    parser.add_argument("--runs", nargs="+", required=True)
+    args = parser.parse_args()
+    print("| run | clip | μ (mm) | knee flexion error l / r (°) | hip flexion error l / r (°) "
+          "| IK marker RMS max (mm) |")
+    print("|---|---|---|---|---|---|")
+    knees = []
+    for run in args.runs:
+        for path in sorted(Path(run).glob("*/*.h5")):
+            with tempfile.TemporaryDirectory() as tmp:
+                copy = Path(tmp) / path.name  # the export writes beside the result
+                shutil.copy(path, copy)
+                with contextlib.redirect_stdout(io.StringIO()):
+                    if cli(["export", str(copy), "--opensim", "-q"]) != 0:
+                        raise SystemExit(f"{path}: export --opensim failed")
+                paths = opensim_paths(copy)
+                mot, errors = _table(osim, paths["motion"]), _table(osim, paths["errors"])
+            res = read_result(path)
+            gt = read_body_pose_xml(Path(args.data) / path.parent.name / "Mocap_Data"
+                                    / f"{path.stem}.xml")
+            rows = gt.index_of(res.frames)
+            if (rows < 0).any():
+                raise SystemExit(f"{path}: frames without ground truth")
+            truth = endpoints_to_landmarks(gt.endpoints[rows])
+            mu = float(np.linalg.norm(res.landmarks - truth, axis=2).mean())
+            knee = [float(np.abs(mot[f"knee_angle_{s}"] - knee_flexion(truth, s)).mean())
+                    for s in "lr"]
+            hip = [float(np.abs(mot[f"hip_flexion_{s}"] - hip_flexion(truth, s)).mean())
+                   for s in "lr"]
+            knees += knee
+            print(f"| {run} | {path.stem} | {mu:.1f} | {knee[0]:.1f} / {knee[1]:.1f} | "
+                  f"{hip[0]:.1f} / {hip[1]:.1f} | "
+                  f"{1000 * float(errors['marker_error_RMS'].max()):.1f} |", flush=True)
+    print(f"\nknee flexion error, mean over runs and sides: {np.mean(knees):.1f}° "
+          f"(largest {np.max(knees):.1f}°)")
+
+
+if __name__ == "__main__":
+    main()
