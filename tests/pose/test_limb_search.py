@@ -5,7 +5,7 @@ import pytest
 
 from voxelmocap.body import BodyModel
 from voxelmocap.grid import VoxelGrid
-from voxelmocap.pose.limb_search import LIMBS, sweep_limbs
+from voxelmocap.pose.limb_search import LIMBS, LimbScoring, sweep_limbs
 from voxelmocap.score.likelihood import Measurement, log_likelihood, rasterise
 
 DEG = np.pi / 180
@@ -177,7 +177,8 @@ def test_other_cues_are_added_to_the_limb_scores():
         return -200.0 * (np.asarray(states)[:, k] - 1.2) ** 2
 
     alone, _ = sweep_limbs(seen, model, stand, samples=256, sweeps=1)
-    pulled, gains = sweep_limbs(seen, model, stand, samples=256, sweeps=1, others=others)
+    pulled, gains = sweep_limbs(seen, model, stand, samples=256, sweeps=1,
+                                scoring=LimbScoring(others=others))
     assert abs(alone[k] - stand[k]) < 0.2
     assert abs(pulled[k] - 1.2) < 0.3 and gains["l_leg"] > 0
 
@@ -190,7 +191,8 @@ def test_the_voxel_weight_scales_the_voxel_scores():
     seen = Measurement(rasterise(model, truth[None], GRID) > 0, GRID)
     start = model.default_state()
     one, g1 = sweep_limbs(seen, model, start, samples=128, sweeps=1)
-    two, g2 = sweep_limbs(seen, model, start, samples=128, sweeps=1, voxel_weight=2.0)
+    two, g2 = sweep_limbs(seen, model, start, samples=128, sweeps=1,
+                          scoring=LimbScoring(voxel_weight=2.0))
     np.testing.assert_array_equal(one, two)
     for name in LIMBS:
         assert g2[name] == pytest.approx(2.0 * g1[name])
@@ -199,8 +201,8 @@ def test_the_voxel_weight_scales_the_voxel_scores():
     def others(states):
         return -np.abs(np.asarray(states)[:, k] - 1.0)
 
-    none, gains = sweep_limbs(seen, model, start, samples=128, sweeps=1, voxel_weight=0.0,
-                              others=others)
+    none, gains = sweep_limbs(seen, model, start, samples=128, sweeps=1,
+                              scoring=LimbScoring(voxel_weight=0.0, others=others))
     assert abs(none[k] - 1.0) < 0.05
     for name in ("r_leg", "l_arm", "r_arm"):                 # nothing else scores
         assert gains[name] == 0.0

@@ -283,10 +283,10 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
     record = tracker.step(seen)
     wrist = np.linalg.norm(record.landmarks[4] - MODEL.landmarks(truth[None])[0, 4])
     assert wrist < 60.0, wrist
-    from voxelmocap.pose.limb_search import sweep_limbs
+    from voxelmocap.pose.limb_search import LimbScoring, sweep_limbs
 
-    found, _ = sweep_limbs(seen, MODEL, MODEL.default_state(), variances=(0.01, 0.01, 0.1, 0.1),
-                           coverage=TrackConfig().likelihood.coverage, sweeps=1)
+    found, _ = sweep_limbs(seen, MODEL, MODEL.default_state(), sweeps=1, scoring=LimbScoring(
+        variances=(0.01, 0.01, 0.1, 0.1), coverage=TrackConfig().likelihood.coverage))
     assert np.linalg.norm(MODEL.landmarks(found[None])[0, 4]
                           - MODEL.landmarks(truth[None])[0, 4]) < 60.0
     np.testing.assert_array_equal(tracker.filter.estimate, record.state)
@@ -296,13 +296,12 @@ def test_the_periodic_limb_sweep_finds_a_lost_arm_and_moves_the_particles():
 def test_the_periodic_sweep_keeps_a_limb_whose_gain_is_below_limb_sweep_gain():
     """The same lost arm with ``filter.limb_sweep_gain`` above what finding it gains: the sweep
     leaves the arm hanging (the 40-particle step cannot reach it by itself either)."""
-    from voxelmocap.pose.limb_search import sweep_limbs
+    from voxelmocap.pose.limb_search import LimbScoring, sweep_limbs
 
     truth = _lost_arm_truth()
     seen = Measurement(rasterise(MODEL, truth[None], LOST_ARM_GRID) > 0, LOST_ARM_GRID)
-    _, gains = sweep_limbs(seen, MODEL, MODEL.default_state(),
-                           variances=LOST_ARM_CONFIG["likelihood.variances"], sweeps=1,
-                           coverage=0.0, seed=1)
+    _, gains = sweep_limbs(seen, MODEL, MODEL.default_state(), sweeps=1, seed=1,
+                           scoring=LimbScoring(variances=LOST_ARM_CONFIG["likelihood.variances"]))
     wrists = [_wrist_error_after_one_step(seen, truth, **{"filter.limb_sweep_gain": gain})
               for gain in (0.0, gains["l_arm"] + 1.0)]
     assert gains["l_arm"] > 0 and wrists[0] < 60.0 and wrists[1] > 200.0, (gains, wrists)
@@ -330,7 +329,7 @@ def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
     hierarchical search (full and partial scoring) and in the limb sweep's scores: each equals
     log_likelihood(..., coverage=w) called directly."""
     from voxelmocap.pose.hierarchy import BODY_PARTITIONS
-    from voxelmocap.pose.limb_search import sweep_limbs
+    from voxelmocap.pose.limb_search import LimbScoring, sweep_limbs
 
     states, obs = walk
     w = 250.0
@@ -352,7 +351,8 @@ def test_the_coverage_weight_reaches_every_likelihood_the_tracker_uses(walk):
                                                   coverage=w), rtol=1e-12)
     # the start's limb sweep: the tracker's answer is the sweep's with the same weight
     swept, _ = tracker.sweep_limbs(obs[1], xs[3][None])
-    alone, _ = sweep_limbs(obs[1], MODEL, xs[3], variances=var, coverage=w, seed=0)
+    alone, _ = sweep_limbs(obs[1], MODEL, xs[3], scoring=LimbScoring(variances=var, coverage=w),
+                           seed=0)
     np.testing.assert_array_equal(swept[0], alone)
 
 

@@ -27,6 +27,7 @@ True
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -35,19 +36,51 @@ from ..score.partial import PartialScorer
 from ..tracking.refine import pattern_search
 from .hierarchy import LIMBS
 
-__all__ = ["LIMBS", "swapped_limbs", "sweep_limbs"]
+__all__ = ["LIMBS", "LimbScoring", "swapped_limbs", "sweep_limbs"]
 
 #: the limb pairs a swap exchanges, with the landmarks each limb's angles place
 _PAIRS = {("l_leg", "r_leg"): (("l_knee", "r_knee"), ("l_ankle", "r_ankle")),
           ("l_arm", "r_arm"): (("l_elbow", "r_elbow"), ("l_wrist", "r_wrist"))}
 
 
-def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, coverage: float = 0.0,
-                samples: int = 1024,
-                sweeps: int = 2, keep: int = 4, refine_evaluations: int = 40, seed: int = 0,
-                min_gain: float = 0.0, others: Callable[[np.ndarray], np.ndarray] | None = None,
-                voxel_weight: float = 1.0, swaps: bool = False,
-                limbs: tuple[str, ...] | None = None
+
+@dataclass(frozen=True)
+class LimbScoring:
+    """What a limb search scores: the voxel cue's partial log-likelihood at its fused weight,
+    plus the other cues on whole states.
+
+    Attributes
+    ----------
+    variances : 4 floats
+        The likelihood's σ² (``LikelihoodConfig.variances``).
+    coverage : float
+        Weight of its coverage term (``LikelihoodConfig.coverage``).
+    voxel_weight : float
+        Weight of the voxel cue's scores in the sum (the fused likelihood's; 0 when the voxel
+        cue is not selected).
+    others : callable or None
+        The log-likelihood ``(P, 27) -> (P,)`` of the other cues on whole states (e.g. the
+        silhouette cue) on this frame: a visual hull several times the body offers phantom
+        volume that only the images rule out.
+    """
+
+    variances: tuple = DEFAULT_VARIANCES
+    coverage: float = 0.0
+    voxel_weight: float = 1.0
+    others: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def __call__(self, scorer: PartialScorer, states) -> np.ndarray:
+        """``(P,)`` scores of ``(P, 27)`` states that differ from the scorer's pose only in its
+        limb's dimensions."""
+        out = self.voxel_weight * scorer.log_likelihood(states, variances=self.variances,
+                                                        coverage=self.coverage)
+        return out if self.others is None else out + self.others(states)
+
+
+def sweep_limbs(observation, model, state, *, scoring: LimbScoring | None = None,
+                samples: int = 1024, sweeps: int = 2, keep: int = 4,
+                refine_evaluations: int = 40, seed: int = 0, min_gain: float = 0.0,
+                swaps: bool = False, limbs: tuple[str, ...] | None = None
                 ) -> tuple[np.ndarray, dict[str, float]]:
     """Search every limb over its legal box on one frame, the rest of the body held.
 
@@ -58,10 +91,8 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
     model : BodyModel
     state : (27,) array_like
         The pose to improve (legal).
-    variances : 4 floats
-        The likelihood's σ² (``LikelihoodConfig.variances``).
-    coverage : float
-        Weight of its coverage term (``LikelihoodConfig.coverage``).
+    scoring : LimbScoring, optional
+        How states are scored (default: the voxel cue alone, paper 002's σ², no coverage term).
     samples : int
         Sobol points per limb and sweep (rounded up to a power of two).
     sweeps : int
@@ -76,13 +107,6 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         A limb moves only when the best angles found beat its current ones by more than this
         (log-likelihood units, ≥ 0): a tracked limb is not flipped into a configuration the
         frame's voxels barely prefer.
-    others : callable, optional
-        The log-likelihood ``(P, 27) -> (P,)`` of the other cues on whole states (e.g. the
-        silhouette cue), added to the voxel cue's partial scores: a visual hull several times
-        the body offers phantom volume that only the images rule out.
-    voxel_weight : float
-        Weight of the voxel cue's scores in that sum (the fused likelihood's; 0 when the voxel
-        cue is not selected).
     swaps : bool
         Before the sweeps, try each pair's limbs exchanged (:func:`swapped_limbs`): legs
         crossed onto each other's voxels, or the left arm raised for the right, are one move
@@ -104,11 +128,11 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
         raise ValueError(f"min_gain must be >= 0, got {min_gain!r}")
     if limbs is not None and not set(limbs) <= set(LIMBS):
         raise ValueError(f"unknown limbs {sorted(set(limbs) - set(LIMBS))}: not in {list(LIMBS)}")
+    scoring = LimbScoring() if scoring is None else scoring
     x = model.clip(np.asarray(state, dtype=float)[None])[0]
     gains = dict.fromkeys(LIMBS, 0.0)
     if swaps:
-        x = _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others,
-                       voxel_weight)
+        x = _try_swaps(observation, model, x, gains, scoring, min_gain)
     m = int(np.ceil(np.log2(max(int(samples), 2))))
     for sweep in range(int(sweeps)):
         for j, (name, (dims, parts)) in enumerate(LIMBS.items()):
@@ -118,7 +142,7 @@ def sweep_limbs(observation, model, state, *, variances=DEFAULT_VARIANCES, cover
             scorer = PartialScorer(observation, model, x, parts, dims)
 
             def ll(states, scorer=scorer):
-                return _scores(scorer, states, variances, coverage, others, voxel_weight)
+                return scoring(scorer, states)
 
             current = float(ll(x[None])[0])
             u = qmc.Sobol(len(dims), seed=seed + 7 * sweep + 97 * j).random_base2(m)
@@ -198,22 +222,14 @@ def swapped_limbs(model, state, pair: tuple[str, str]) -> np.ndarray:
     return out
 
 
-def _scores(scorer, states, variances, coverage, others, voxel_weight) -> np.ndarray:
-    """What the limb searches score: the voxel cue's partial log-likelihood at its fused weight,
-    plus the other cues on whole states (when given)."""
-    out = voxel_weight * scorer.log_likelihood(states, variances=variances, coverage=coverage)
-    return out if others is None else out + others(states)
-
-
-def _try_swaps(observation, model, x, gains, variances, coverage, min_gain, others,
-               voxel_weight):
+def _try_swaps(observation, model, x, gains, scoring, min_gain):
     """``x`` with each limb pair exchanged where that beats it by more than ``min_gain``."""
     for pair in _PAIRS:
         dims = LIMBS[pair[0]][0] + LIMBS[pair[1]][0]
         parts = LIMBS[pair[0]][1] + LIMBS[pair[1]][1]
         scorer = PartialScorer(observation, model, x, parts, dims)
         cand = np.concatenate([x[None], swapped_limbs(model, x, pair)])
-        scores = _scores(scorer, cand, variances, coverage, others, voxel_weight)
+        scores = scoring(scorer, cand)
         k = 1 + int(np.argmax(scores[1:]))
         if scores[k] > scores[0] + min_gain:
             for name in pair:                       # the gain shared by the two limbs

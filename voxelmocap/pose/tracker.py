@@ -207,12 +207,11 @@ class BodyTracker:
         particles follow a limb that moved (``filter.limb_sweep_every``)."""
         from .limb_search import sweep_limbs
 
-        new, gains = sweep_limbs(observation, self.model, est[0], variances=self.variances,
-                                 coverage=self.coverage, sweeps=1, seed=self.filter.frame,
+        new, gains = sweep_limbs(observation, self.model, est[0],
+                                 scoring=self.limb_scoring(observation), sweeps=1,
+                                 seed=self.filter.frame,
                                  min_gain=self.config.filter.limb_sweep_gain,
                                  samples=self.config.filter.limb_sweep_samples,
-                                 others=self._other_cues(observation),
-                                 voxel_weight=self._voxel_weight,
                                  swaps=self.config.filter.limb_swaps)
         if sum(gains.values()) > 0:
             self.filter.move_estimate(new)
@@ -223,6 +222,15 @@ class BodyTracker:
     def _voxel_weight(self) -> float:
         """The voxel cue's weight in the fused likelihood (0 when it is not selected)."""
         return float(dict(self.config.cues.weights).get("voxel", 0.0))
+
+    def limb_scoring(self, observation):
+        """How a limb search scores states on this frame: this tracker's σ² and coverage
+        weight (as they stand: a start is scored without the coverage term), the voxel cue's
+        weight and the other cues (:class:`voxelmocap.pose.limb_search.LimbScoring`)."""
+        from .limb_search import LimbScoring
+
+        return LimbScoring(variances=self.variances, coverage=self.coverage,
+                           voxel_weight=self._voxel_weight, others=self._other_cues(observation))
 
     def _other_cues(self, observation):
         """The cues other than the voxel one, ``(P, 27) -> (P,)`` on whole states, or None when
@@ -251,12 +259,10 @@ class BodyTracker:
 
         states = np.asarray(states, dtype=float)
         out = np.atleast_2d(states).copy()
-        others = self._other_cues(observation)
+        scoring = self.limb_scoring(observation)
         moved = 0
         for k in range(len(out)):
-            out[k], gains = sweep_limbs(observation, self.model, out[k], variances=self.variances,
-                                        coverage=self.coverage, seed=k, others=others,
-                                        voxel_weight=self._voxel_weight,
+            out[k], gains = sweep_limbs(observation, self.model, out[k], scoring=scoring, seed=k,
                                         swaps=self.config.filter.limb_swaps, limbs=limbs)
             moved += sum(g > 0 for g in gains.values())
         return out.reshape(states.shape), moved
@@ -448,10 +454,9 @@ class BodyTracker:
 
         fc = self.config.filter
         twin = turned_round(self.model, est[0])
-        twin, _ = sweep_limbs(observation, self.model, twin, variances=self.variances,
-                              coverage=self.coverage, sweeps=1, seed=self.filter.frame,
-                              samples=fc.limb_sweep_samples, others=self._other_cues(observation),
-                              voxel_weight=self._voxel_weight)
+        twin, _ = sweep_limbs(observation, self.model, twin,
+                              scoring=self.limb_scoring(observation), sweeps=1,
+                              seed=self.filter.frame, samples=fc.limb_sweep_samples)
         both = np.stack([est[0], twin])
         value = self.log_likelihood(observation)(both)
         if fc.facing_weight:

@@ -246,7 +246,7 @@ def test_the_limb_searches_score_the_other_cues_on_whole_states(monkeypatch):
     real = limb_search.sweep_limbs
 
     def spy(observation, model, state, **kw):
-        seen.append(kw.get("others"))
+        seen.append(kw["scoring"].others)
         return real(observation, model, state, **{**kw, "samples": 8, "refine_evaluations": 4})
 
     monkeypatch.setattr(limb_search, "sweep_limbs", spy)
