@@ -56,11 +56,13 @@ def hip_flexion(lm: np.ndarray, side: str) -> np.ndarray:
 
 
 def _table(osim, path: Path) -> dict[str, np.ndarray]:
+    """A .mot / .sto as columns, with its time column as ``"time"`` (s)."""
     table = osim.TimeSeriesTable(str(path))
     labels = list(table.getColumnLabels())
     values = np.array([[table.getRowAtIndex(i)[j] for j in range(len(labels))]
                        for i in range(table.getNumRows())])
-    return dict(zip(labels, values.T, strict=True))
+    return {"time": np.array(table.getIndependentColumn()),
+            **dict(zip(labels, values.T, strict=True))}
 
 
 def main() -> None:
@@ -93,8 +95,12 @@ def main() -> None:
             rows = gt.index_of(res.frames)
             if (rows < 0).any():
                 raise SystemExit(f"{path}: frames without ground truth")
-            truth = endpoints_to_landmarks(gt.endpoints[rows])
-            mu = float(np.linalg.norm(res.landmarks - truth, axis=2).mean())
+            mu = float(np.linalg.norm(res.landmarks - endpoints_to_landmarks(gt.endpoints[rows]),
+                                      axis=2).mean())
+            # the .mot holds the frames with a person only: matched by its time column
+            frames = np.rint(mot["time"] * float(res.attrs["frame_rate"])).astype(int) \
+                + int(res.frames[0])
+            truth = endpoints_to_landmarks(gt.endpoints[gt.index_of(frames)])
             knee = [float(np.abs(mot[f"knee_angle_{s}"] - knee_flexion(truth, s)).mean())
                     for s in "lr"]
             hip = [float(np.abs(mot[f"hip_flexion_{s}"] - hip_flexion(truth, s)).mean())

@@ -79,6 +79,8 @@ def _cli(python: str, pythonpath: str | None, args: list[str]) -> None:
     code = "import sys; from voxelmocap.cli import main; sys.exit(main(sys.argv[1:]))"
     if pythonpath:
         root = Path(pythonpath).resolve()
+        if os.sep in python:  # a path, relative to here, not to the checkout the child runs in
+            python = str(Path(python).resolve())
         env["PYTHONPATH"], cwd = str(root), root
         # "python -c" puts its working folder first on sys.path: run it in the checkout, and
         # refuse to go on if another copy of the package is imported (an editable install's

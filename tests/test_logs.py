@@ -29,11 +29,12 @@ def test_quiet_verbose_and_the_log_file(walk_dataset, tmp_path, capsys):
     assert f"results: {run / 'S1' / 'Walking_1.h5'}" in out
     # the closing line's rate is the whole command's (what the user waited), beside the last
     # pass's frame loop
-    closing = re.search(r"tracked 2 frames of 1–2 in ([0-9.]+) s: ([0-9.]+) frames/s for the "
-                        r"whole command \(the last pass's frame loop ([0-9.]+) frames/s\)", out)
+    closing = re.search(r"tracked 2 frames of 1–2 in (?:(\d+) min )?([0-9.]+) s: ([0-9.]+) "
+                        r"frames/s for the whole command \(the last pass's frame loop "
+                        r"([0-9.]+) frames/s\)", out)
     assert closing, out
-    wall, rate = float(closing[1]), float(closing[2])
-    assert rate == pytest.approx(2 / wall, rel=0.1, abs=0.01)
+    wall = 60 * int(closing[1] or 0) + float(closing[2])
+    assert float(closing[3]) == pytest.approx(2 / wall, rel=0.1, abs=0.01)
     assert "seed 0, frame rate" not in out
     # -q before the subcommand: nothing at INFO (the run is complete: it says so at INFO)
     assert main(["-q", *_track(walk_dataset, run, "--resume")]) == 0
@@ -167,7 +168,8 @@ def test_progress_bars_only_on_a_terminal(walk_dataset, tmp_path, capsys, monkey
 
 
 @pytest.mark.parametrize(("seconds", "text"), [
-    (0.04, "0.0 s"), (42.26, "42.3 s"), (59.94, "59.9 s"), (60.0, "1 min 0 s"),
+    (0.04, "0.0 s"), (42.26, "42.3 s"), (59.94, "59.9 s"), (59.96, "1 min 0 s"),
+    (60.0, "1 min 0 s"),
     (725.4, "12 min 5 s"), (3599.4, "59 min 59 s"), (3600.0, "1 h 0 min"),
     (3 * 3600 + 7 * 60 + 29, "3 h 7 min"),
 ])

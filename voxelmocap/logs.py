@@ -314,7 +314,7 @@ def emit(logger: logging.Logger, callback, message: str, level: int = logging.IN
 
 def duration(seconds: float) -> str:
     """A wall time as a person reads it: ``"42.3 s"``, ``"12 min 5 s"``, ``"1 h 3 min"``."""
-    seconds = float(seconds)
+    seconds = round(float(seconds), 1)  # 59.96 s reads "1 min 0 s", not "60.0 s"
     if seconds < 60:
         return f"{seconds:.1f} s"
     minutes, secs = divmod(int(round(seconds)), 60)

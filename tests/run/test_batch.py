@@ -61,7 +61,7 @@ def test_all_on_a_local_dask_cluster_then_skipped(three, tmp_path, capsys):
     log = (run / "voxelmocap.log").read_text()
     assert "[S2/Walking_2] S2/Walking_2: 3 frames" in log  # written by the worker process
     # each sequence's line gives its whole wall time and rate, not only its last pass's loop
-    assert re.search(r"S2/Walking_2: 3 frames in [0-9.]+ s \([0-9.]+ frames/s for the whole "
+    assert re.search(r"S2/Walking_2: 3 frames in (\d+ min )?[0-9.]+ s \([0-9.]+ frames/s for the whole "
                      r"sequence; its last pass's frame loop [0-9.]+ frames/s\) → ", out)
 
     stamps = {p: p.stat().st_mtime_ns for p in run.rglob("*.h5")}

@@ -40,6 +40,30 @@ def test_partitions_find_a_separable_optimum_and_count_evaluations():
     assert [k for k, _ in seen[:3]] == [0, 1, 2]
 
 
+def test_searched_holds_each_partitions_last_layer_and_moves_with_the_estimate():
+    target = np.array([1.0, -2.0, 0.5, 3.0])
+
+    def ll_for(k, ref):
+        return lambda x: -0.5 * np.sum((x - target) ** 2, axis=1) / 0.05 ** 2
+
+    parts = [Partition((0, 1), 2, 60), Partition((2,), 2, 40), Partition((3,), 2, 30)]
+    f = PartitionedParticleFilter(parts, -5 * np.ones(4), 5 * np.ones(4), 0.3, rng=1)
+    f.initialise(np.zeros(4), 1.0)
+    assert f.searched == []                      # nothing searched before a step
+    f.step_partitioned(ll_for)
+    groups = f.searched
+    assert [tuple(d) for d, _, _ in groups] == [(0, 1), (2,), (3,)]
+    assert [own.shape for _, own, _ in groups] == [(60, 2), (40, 1), (30, 1)]
+    for _, _, w in groups:
+        assert w.min() >= 0 and w.sum() == pytest.approx(1.0)
+    delta = np.array([0.5, -0.25, 0.0, 1.0])
+    f.move_estimate(f.estimate + delta)
+    for (dims, before, _), (_, after, _) in zip(groups, f.searched, strict=True):
+        np.testing.assert_allclose(after, np.clip(before + delta[dims], -5, 5))
+    f.initialise(np.zeros(4), 1.0)
+    assert f.searched == []
+
+
 def test_refinement_improves_the_estimate_within_its_budget():
     target = np.array([0.7, -0.4])
 

@@ -194,6 +194,9 @@ def _closing_line(outcome, wall: float) -> str:
 
     n = len(outcome.frames)
     new = n - outcome.resumed_from
+    if new == 0:
+        return (f"nothing to track: the result of frames {outcome.frames[0]}–"
+                f"{outcome.frames[-1]} was complete ({duration(wall)})")
     done = f"tracked {new} frames" + ("" if new == n else f" (after {outcome.resumed_from} resumed)")
     return (f"{done} of {outcome.frames[0]}–{outcome.frames[-1]} in {duration(wall)}: "
             f"{new / wall:.2f} frames/s for the whole command "

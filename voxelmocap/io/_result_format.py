@@ -32,8 +32,9 @@ PER_FRAME: dict[str, tuple[str, str]] = {
     "seconds": ("s", "wall time of the frame: measurement, initialisation and filter"),
     "log_likelihood": ("1", "log-likelihood of the estimate (paper 002 eqs 7-9)"),
     "map_state": ("mm (translation), rad (angles)", "the particle of largest last-layer weight"),
-    "landmark_spread": ("mm", "weighted RMS distance of each landmark over the last layer's "
-                        "particles (NaN: unknown)"),
+    "landmark_spread": ("mm", "weighted RMS distance of each landmark over the particles, "
+                        "the variances of every partition's last layer added "
+                        "(voxelmocap.pose.confidence.searched_spread; NaN: unknown)"),
     "confidence": ("1", "confidence of each landmark in [0, 1]: voxel support of its parts x "
                    "P(error < 100 mm) for the particles' spread (voxelmocap.pose.confidence)"),
     "observed": ("1", "1 when a person was seen in the frame, 0 when not (then the estimate "

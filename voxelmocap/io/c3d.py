@@ -7,7 +7,7 @@ resolution is below 0.001 mm within 8 m of the origin). The first frame (header 
 frames missing from the result are written as invalid points.
 
 The **residual** channel (C3D: the reconstruction's error estimate, in the point units) holds each
-landmark's particle spread (:func:`voxelmocap.pose.confidence.landmark_spread`, the filter's own error
+landmark's particle spread (:func:`voxelmocap.pose.confidence.searched_spread`, the filter's own error
 estimate) in whole millimetres, clipped to 1…255 mm (a residual of 0 means "interpolated" in
 C3D, and the channel is one byte); −1 marks an invalid point (no estimate, or a frame without a
 person), whose coordinates are written as zeros (the C3D convention; the ``c3d`` package's writer

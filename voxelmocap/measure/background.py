@@ -50,14 +50,12 @@ from .plate import PlateBackground, _channels, camera_at_most, plate_from_frames
 __all__ = ["MIN_PERSON_MM3", "learn_plates", "person_component", "plates_from_covers"]
 
 _DEFAULT = SilhouetteConfig()
-_DEFAULT = SilhouetteConfig()
 #: Smallest visual-hull volume of a person (mm³): 30 litres, below a small adult's body volume
 #: (≈ 60 litres) let alone its visual hull; a person carving into less is (partly) in the plate.
 MIN_PERSON_MM3 = 30e6
 #: Closing radius of the projected person (share of its height in the image) that covers a torso
 #: the plate absorbed between carved limbs.
 COVER_CLOSING = 0.12
-#: Gains outside this range mean the frame is not comparable with the plate (lights switched).
 
 
 # ---------------------------------------------------------------------- person in 3D

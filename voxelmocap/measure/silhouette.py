@@ -498,7 +498,7 @@ def segment(image, background, config: SilhouetteConfig | None = None, *,
                       fill_holes=config.fill_holes)
     refine = getattr(background, "refine", None)
     if refine is not None:
-        # a learnt plate decides its never-seen pixels from this frame (background.py)
+        # a learnt plate decides its never-seen pixels from this frame (plate.py)
         mask = refine(image, mask, config)
     return mask
 

@@ -46,8 +46,8 @@ class FrameRecord:
     likelihood_seconds : float
         The part of ``seconds`` spent in the filter's likelihood evaluations.
     landmark_spread : (15,) ndarray
-        Weighted RMS distance (mm) of each landmark over the last layer's particles
-        (:func:`voxelmocap.pose.confidence.landmark_spread`); NaN when unknown.
+        Weighted RMS distance (mm) of each landmark over the particles of every partition's
+        last layer (:func:`voxelmocap.pose.confidence.searched_spread`); NaN when unknown.
     confidence : (15,) ndarray
         Each landmark's confidence in [0, 1] (:func:`voxelmocap.pose.confidence.landmark_confidence`
         of the spread and ``part_scores``); NaN when unknown.

@@ -1,4 +1,4 @@
-"""Recovery: detector proposals for the IAPF, frames without a person, lost tracks.
+"""Recovery: frames without a person, lost tracks, re-initialisation.
 
 Three pieces, all free of file access, that let a track survive what the annealed particle filter
 alone cannot (issue 11; Fontmarty et al., paper 004 §III-A and Table I):

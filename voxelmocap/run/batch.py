@@ -266,8 +266,8 @@ def run_batch(request: BatchRequest, *, scheduler: str | None = None,
     if todo:
         run_started()
     here = scheduler is None and n_workers is None
-    # the workers see absolute paths and the configuration as its TOML text (what the result
-    # records): a worker may run in another folder, and on another machine
+    # the workers see absolute paths and the configuration read back from its TOML text (what
+    # the result records and result_is_done compares): a worker may run in another folder
     resolved = dataclasses.replace(
         r, dataset=str(Path(r.dataset).resolve()), out_dir=str(out_dir.resolve()),
         config=config_from_toml(config_toml),

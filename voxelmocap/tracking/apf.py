@@ -246,7 +246,8 @@ class AnnealedParticleFilter:
         """What the last step searched: ``[(dims (K,), particles (P, K), weights (P,))]``.
 
         One entry per group of dimensions searched with the others held: for this joint filter
-        the last layer over every dimension (empty before a step). A caller measuring how
+        its particles over every dimension (the last layer after a step; the drawn or restored
+        set after :meth:`initialise` or :meth:`set_state`, empty before). A caller measuring how
         uncertain a function of the state is takes each group's spread with the other
         dimensions at the estimate (:attr:`.partitioned.PartitionedParticleFilter.searched`).
         """
@@ -321,6 +322,9 @@ class AnnealedParticleFilter:
         state = np.asarray(state, dtype=float)
         delta = state - self.estimate
         self.particles = np.clip(self.particles + delta, self.low, self.high)
+        # what each group searched moves with it: the spread is measured where the limb now is
+        self._searched = [(dims, np.clip(own + delta[dims], self.low[dims], self.high[dims]), w)
+                          for dims, own, w in self._searched]
         self.estimate = state.copy()
         self.map_particle = np.clip(np.asarray(self.map_particle) + delta, self.low, self.high)
         if len(self._history):
