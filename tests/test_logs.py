@@ -167,6 +167,18 @@ def test_progress_bars_only_on_a_terminal(walk_dataset, tmp_path, capsys, monkey
     assert not logs.progress_to_terminal(object())  # no isatty: not a terminal
 
 
+def test_the_closing_line_of_a_complete_result_says_nothing_was_tracked(walk_dataset, tmp_path,
+                                                                        capsys):
+    run = tmp_path / "run"
+    assert main(_track(walk_dataset, run)) == 0
+    capsys.readouterr()
+    assert main(_track(walk_dataset, run, "--resume")) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"nothing to track: the result of frames 1–2 was complete \([0-9.]+ s\)",
+                     out), out
+    assert "frames/s" not in out
+
+
 @pytest.mark.parametrize(("seconds", "text"), [
     (0.04, "0.0 s"), (42.26, "42.3 s"), (59.94, "59.9 s"), (59.96, "1 min 0 s"),
     (60.0, "1 min 0 s"),
