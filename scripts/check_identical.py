@@ -80,7 +80,7 @@ def _cli(python: str, pythonpath: str | None, args: list[str]) -> None:
     if pythonpath:
         root = Path(pythonpath).resolve()
         if os.sep in python:  # a path, relative to here, not to the checkout the child runs in
-            python = str(Path(python).resolve())
+            python = os.path.abspath(python)  # not resolve(): a venv's python is a symlink
         env["PYTHONPATH"], cwd = str(root), root
         # "python -c" puts its working folder first on sys.path: run it in the checkout, and
         # refuse to go on if another copy of the package is imported (an editable install's
