@@ -3,11 +3,11 @@
 For every result ``RUN/<Subject>/<Action>_<Trial>.h5`` a copy is handed to ``voxelmocap export
 --opensim`` (a model scaled to the tracked body, OpenSim inverse kinematics), and the knee and
 hip flexion of the ``.mot`` are compared with the same angles computed in closed form from the
-data set's ground-truth landmarks (``DATA/<Subject>/Mocap_Data/<Action>_<Trial>.xml``): knee =
-the angle between thigh and shank; hip = the thigh's angle from the trunk in the pelvis' sagittal
-plane (``tests/io/test_opensim.py`` checks OpenSim against these definitions on ground truth to
-0.5°). Printed per result: the landmarks' μ, the mean absolute knee and hip flexion error (left /
-right, degrees) and the largest IK marker RMS (mm). Needs the ``opensim`` extra.
+data set's ground-truth landmarks (``DATA/<Subject>/Mocap_Data/<Action>_<Trial>.xml``):
+:func:`voxelmocap.evaluation.knee_flexion` and :func:`~voxelmocap.evaluation.hip_flexion`
+(``tests/io/test_opensim.py`` checks OpenSim against them on ground truth to 0.5°). Printed per
+result: the landmarks' μ, the mean absolute knee and hip flexion error (left / right, degrees)
+and the largest IK marker RMS (mm). Needs the ``opensim`` extra.
 
 Usage::
 
@@ -27,32 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from voxelmocap.evaluation import hip_flexion, knee_flexion
 from voxelmocap.io.body_pose_xml import read_body_pose_xml
 from voxelmocap.io.results import read_result
-from voxelmocap.joints import LANDMARK_NAMES, endpoints_to_landmarks
-
-_I = {name: i for i, name in enumerate(LANDMARK_NAMES)}
-
-
-def knee_flexion(lm: np.ndarray, side: str) -> np.ndarray:
-    """(F,) degrees from (F, 15, 3) landmarks: the angle between thigh and shank."""
-    thigh = lm[:, _I[f"{side}_knee"]] - lm[:, _I[f"{side}_hip"]]
-    shank = lm[:, _I[f"{side}_ankle"]] - lm[:, _I[f"{side}_knee"]]
-    cos = np.sum(thigh * shank, 1) / np.linalg.norm(thigh, axis=1) / np.linalg.norm(shank, axis=1)
-    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
-
-
-def hip_flexion(lm: np.ndarray, side: str) -> np.ndarray:
-    """(F,) degrees: the thigh's angle from the trunk in the pelvis' sagittal plane (Z along
-    the hips, Y the trunk made perpendicular to Z, X = Y × Z; atan2(thigh·X, −thigh·Y))."""
-    z = lm[:, _I["r_hip"]] - lm[:, _I["l_hip"]]
-    z /= np.linalg.norm(z, axis=1, keepdims=True)
-    up = lm[:, _I["thorax"]] - lm[:, _I["pelvis"]]
-    y = up - np.sum(up * z, 1)[:, None] * z
-    y /= np.linalg.norm(y, axis=1, keepdims=True)
-    x = np.cross(y, z)
-    thigh = lm[:, _I[f"{side}_knee"]] - lm[:, _I[f"{side}_hip"]]
-    return np.degrees(np.arctan2(np.sum(thigh * x, 1), -np.sum(thigh * y, 1)))
+from voxelmocap.joints import endpoints_to_landmarks
 
 
 def _table(osim, path: Path) -> dict[str, np.ndarray]:

@@ -218,3 +218,25 @@ def test_first_lasting_frame():
     assert first_lasting_frame([True, True, False]) is None
     assert first_lasting_frame([]) is None
     assert first_lasting_frame(np.abs(np.array([170.0, 90.0, 44.0, 46.0, 30.0, 10.0])) <= 45) == 4
+
+
+def test_knee_and_hip_flexion_of_hand_built_legs():
+    """Hips along +x, trunk up +z (so forward is +y); thigh and shank placed by hand."""
+    from voxelmocap.evaluation import hip_flexion, knee_flexion
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    i = {n: k for k, n in enumerate(LANDMARK_NAMES)}
+    lm = np.zeros((3, 15, 3))
+    lm[:, i["pelvis"]] = (0, 0, 1000)
+    lm[:, i["thorax"]] = (0, 0, 1500)
+    lm[:, i["l_hip"]] = (-100, 0, 1000)
+    lm[:, i["r_hip"]] = (100, 0, 1000)
+    # frame 0: left leg straight down; frame 1: thigh forward, shank down (90°, 90°);
+    # frame 2: thigh 30° forward, shank straight on from it
+    s30, c30 = np.sin(np.radians(30)), np.cos(np.radians(30))
+    lm[0, i["l_knee"]], lm[0, i["l_ankle"]] = (-100, 0, 600), (-100, 0, 200)
+    lm[1, i["l_knee"]], lm[1, i["l_ankle"]] = (-100, 400, 1000), (-100, 400, 600)
+    lm[2, i["l_knee"]] = (-100, 400 * s30, 1000 - 400 * c30)
+    lm[2, i["l_ankle"]] = (-100, 800 * s30, 1000 - 800 * c30)
+    np.testing.assert_allclose(knee_flexion(lm, "l"), [0.0, 90.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(hip_flexion(lm, "l"), [0.0, 90.0, 30.0], atol=1e-9)

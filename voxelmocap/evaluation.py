@@ -34,8 +34,10 @@ __all__ = [
     "evaluate_sequence",
     "first_lasting_frame",
     "hip_axis_angle",
+    "hip_flexion",
     "humaneva_error",
     "humaneva_error_position_average",
+    "knee_flexion",
     "landmark_errors",
     "left_right_correct",
     "mmta_mmtp",
@@ -395,6 +397,55 @@ def hip_axis_angle(est, gt) -> np.ndarray:
     flat = (np.linalg.norm(a, axis=1) == 0) | (np.linalg.norm(b, axis=1) == 0)
     angle[flat] = np.nan
     return angle
+
+
+def knee_flexion(landmarks, side: str) -> np.ndarray:
+    """Knee flexion from landmarks: the angle between thigh (hip → knee) and shank (knee → ankle).
+
+    Parameters
+    ----------
+    landmarks : (F, 15, 3) array_like
+        mm, :data:`voxelmocap.joints.LANDMARK_NAMES` order.
+    side : {"l", "r"}
+
+    Returns
+    -------
+    (F,) ndarray
+        Degrees, 0 for a straight leg.
+    """
+    lm = np.asarray(landmarks, dtype=float)
+    thigh = lm[:, _L[f"{side}_knee"]] - lm[:, _L[f"{side}_hip"]]
+    shank = lm[:, _L[f"{side}_ankle"]] - lm[:, _L[f"{side}_knee"]]
+    cos = np.sum(thigh * shank, 1) / np.linalg.norm(thigh, axis=1) / np.linalg.norm(shank, axis=1)
+    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+
+
+def hip_flexion(landmarks, side: str) -> np.ndarray:
+    """Hip flexion from landmarks: the thigh's angle from the trunk in the pelvis' sagittal plane.
+
+    Pelvis frame: Z along the hips (left → right), Y the trunk (pelvis → thorax) made
+    perpendicular to Z, X = Y × Z forward; flexion = atan2(thigh·X, −thigh·Y).
+
+    Parameters
+    ----------
+    landmarks : (F, 15, 3) array_like
+        mm, :data:`voxelmocap.joints.LANDMARK_NAMES` order.
+    side : {"l", "r"}
+
+    Returns
+    -------
+    (F,) ndarray
+        Degrees: 0 with the thigh along the trunk, 90 with it forward.
+    """
+    lm = np.asarray(landmarks, dtype=float)
+    z = lm[:, _L["r_hip"]] - lm[:, _L["l_hip"]]
+    z /= np.linalg.norm(z, axis=1, keepdims=True)
+    up = lm[:, _L["thorax"]] - lm[:, _L["pelvis"]]
+    y = up - np.sum(up * z, 1)[:, None] * z
+    y /= np.linalg.norm(y, axis=1, keepdims=True)
+    x = np.cross(y, z)
+    thigh = lm[:, _L[f"{side}_knee"]] - lm[:, _L[f"{side}_hip"]]
+    return np.degrees(np.arctan2(np.sum(thigh * x, 1), -np.sum(thigh * y, 1)))
 
 
 def left_right_correct(est, gt, pairs=LIMB_PAIRS) -> dict[str, bool]:

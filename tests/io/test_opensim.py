@@ -20,6 +20,7 @@ from voxelmocap.body.shapes import BodyDimensions
 from voxelmocap.body.state import STATE_INDEX
 from voxelmocap.cli import main
 from voxelmocap.errors import InputError
+from voxelmocap.evaluation import hip_flexion, knee_flexion
 from voxelmocap.io.body_pose_xml import read_body_pose_xml
 from voxelmocap.io.exports import landmark_table
 from voxelmocap.io.opensim import opensim_paths, tracked_body
@@ -54,31 +55,6 @@ def _read_table(osim, path):
     values = np.array([[table.getRowAtIndex(i)[j] for j in range(len(labels))]
                        for i in range(table.getNumRows())])
     return np.array(table.getIndependentColumn()), dict(zip(labels, values.T, strict=True))
-
-
-# ------------------------------------------------------------ angles from points, closed form
-def knee_flexion(lm, side):
-    """(F,) degrees: the angle between thigh (hip → knee) and shank (knee → ankle)."""
-    thigh = lm[:, _I[f"{side}_knee"]] - lm[:, _I[f"{side}_hip"]]
-    shank = lm[:, _I[f"{side}_ankle"]] - lm[:, _I[f"{side}_knee"]]
-    cos = np.sum(thigh * shank, 1) / np.linalg.norm(thigh, axis=1) / np.linalg.norm(shank, axis=1)
-    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
-
-
-def hip_flexion(lm, side):
-    """(F,) degrees: the thigh's angle from the trunk in the pelvis' sagittal plane.
-
-    Pelvis frame: Z along the hips (left → right), Y the trunk (pelvis → thorax) made
-    perpendicular to Z, X = Y × Z forward; flexion = atan2(thigh·X, −thigh·Y).
-    """
-    z = lm[:, _I["r_hip"]] - lm[:, _I["l_hip"]]
-    z /= np.linalg.norm(z, axis=1, keepdims=True)
-    up = lm[:, _I["thorax"]] - lm[:, _I["pelvis"]]
-    y = up - np.sum(up * z, 1)[:, None] * z
-    y /= np.linalg.norm(y, axis=1, keepdims=True)
-    x = np.cross(y, z)
-    thigh = lm[:, _I[f"{side}_knee"]] - lm[:, _I[f"{side}_hip"]]
-    return np.degrees(np.arctan2(np.sum(thigh * x, 1), -np.sum(thigh * y, 1)))
 
 
 # ------------------------------------------------------------------------------ no opensim
