@@ -6,7 +6,7 @@ import argparse
 import logging
 import time
 
-from ..logs import NO_PROGRESS_HELP
+from ..logs import NO_PROGRESS_HELP, duration
 
 logger = logging.getLogger(__name__)
 
@@ -190,8 +190,6 @@ def run(args: argparse.Namespace) -> int:
 def _closing_line(outcome, wall: float) -> str:
     """What the command did, at the rate a user waited for it (every pass, plates, starts and
     exports), beside the last pass's frame loop alone."""
-    from ..logs import duration
-
     n = len(outcome.frames)
     new = n - outcome.resumed_from
     if new == 0:

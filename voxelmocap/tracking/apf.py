@@ -261,7 +261,6 @@ class AnnealedParticleFilter:
         return self._history.copy()
 
     def _clear_records(self):
-        self._searched = []  # the partitioned filter's groups of the last step
         self.estimate = None
         self.map_particle = None
         self.map_log_likelihood = None
@@ -322,9 +321,6 @@ class AnnealedParticleFilter:
         state = np.asarray(state, dtype=float)
         delta = state - self.estimate
         self.particles = np.clip(self.particles + delta, self.low, self.high)
-        # what each group searched moves with it: the spread is measured where the limb now is
-        self._searched = [(dims, np.clip(own + delta[dims], self.low[dims], self.high[dims]), w)
-                          for dims, own, w in self._searched]
         self.estimate = state.copy()
         self.map_particle = np.clip(np.asarray(self.map_particle) + delta, self.low, self.high)
         if len(self._history):

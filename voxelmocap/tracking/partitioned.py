@@ -121,6 +121,19 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         """
         return list(self._searched)
 
+    def _clear_records(self):
+        super()._clear_records()
+        self._searched = []
+
+    def move_estimate(self, state, *, keep_motion: bool = True) -> None:
+        """As :meth:`.apf.AnnealedParticleFilter.move_estimate`; each partition's last layer
+        (:attr:`searched`) moves by the same offset, so the spread is measured where the limb
+        now is."""
+        delta = None if self.estimate is None else np.asarray(state, dtype=float) - self.estimate
+        super().move_estimate(state, keep_motion=keep_motion)
+        self._searched = [(dims, np.clip(own + delta[dims], self.low[dims], self.high[dims]), w)
+                          for dims, own, w in self._searched]
+
     def step(self, log_likelihood, **kwargs):
         raise RuntimeError("PartitionedParticleFilter: call step_partitioned(log_likelihood_for)")
 
