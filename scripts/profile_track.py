@@ -46,7 +46,7 @@ PHASES = [
     ("plate learning", "voxelmocap.measure.background:learn_plates"),
     ("plate learning", "voxelmocap.measure.background:plates_from_covers"),
     ("plate learning", "voxelmocap.pose.body_cover:plate_covers_of"),
-    ("plate learning", "voxelmocap.run.measurement:MeasurementRunner._read_frames"),
+    ("plate learning", "voxelmocap.io.synchronised:FramesByCamera.__getitem__"),
     ("grid placement", "voxelmocap.run.measurement:person_grid"),
     ("start: search", "voxelmocap.pose.tracker:BodyTracker.initial_state"),
     ("start: continued (arms)", "voxelmocap.pose.tracker:BodyTracker.searched_starts"),

@@ -85,3 +85,40 @@ def test_an_image_of_another_size_than_the_calibration_is_refused_naming_the_vid
         seq.read_frame(2)
     assert str(info.value) == (f"{tmp_path / 'B'}: frame size 24x16 differs from the "
                                "calibration's 32x16")
+
+
+def test_one_camera_reads_the_images_the_synchronised_frames_hold(tmp_path):
+    seq = Pair(tmp_path)
+    wanted = [7, 2, 5, 5]
+    together = [(f, im) for f, im in seq.frames(wanted)]
+    for cam in ("A", "B"):
+        alone = list(seq.camera_frames(cam, wanted))
+        assert [f for f, _ in alone] == [f for f, _ in together] == [2, 5, 5, 7]
+        for (_, a), (_, t) in zip(alone, together, strict=True):
+            np.testing.assert_array_equal(a, t[cam])
+    assert [int(im[0, 0]) for _, im in seq.camera_frames("B")] == list(range(1, 9))
+    with pytest.raises(InputError, match="outside the synchronised range"):
+        next(seq.camera_frames("A", [9]))
+    other = tmp_path / "other"
+    other.mkdir()
+    with pytest.raises(InputError, match="frame size 24x16 differs"):
+        next(Pair(other, size_b=(32, 16)).camera_frames("B", [1]))
+
+
+def test_frames_by_camera_stack_each_camera_when_asked_and_keep_nothing(tmp_path):
+    seq = Pair(tmp_path)
+    by_camera = seq.by_camera([6, 1, 3])
+    assert by_camera.numbers == [1, 3, 6]
+    assert list(by_camera) == ["A", "B"] and len(by_camera) == 2
+    assert "B" in by_camera and "C" not in by_camera
+    a, b = by_camera["A"], by_camera["B"]
+    assert a.shape == (3, 16, 24, 3) and b.shape == (3, 16, 24) and a.dtype == np.uint8
+    np.testing.assert_array_equal(a, np.stack([im["A"] for _, im in seq.frames([1, 3, 6])]))
+    assert [int(v) for v in b[:, 0, 0]] == [1, 3, 6]
+    assert by_camera["A"] is not a                        # decoded again, not kept
+    with pytest.raises(KeyError):
+        by_camera["C"]
+    # a subset of the sampled frames, every camera per frame
+    picked = list(by_camera.frames([0, 2]))
+    assert [int(im["B"][0, 0]) for im in picked] == [1, 6]
+    assert [int(im["A"][0, 0, 0]) for im in picked] == [3, 8]   # A starts at video frame 3

@@ -1,6 +1,8 @@
 """Background plates learnt from the sequence (voxelmocap.measure.background) and the real-video rules
 that go with them: noise-based thresholds, shadows, hole-tolerant carving, ghost rejection."""
 
+from collections.abc import Mapping
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -117,6 +119,62 @@ def test_learnt_plate_recovers_the_true_background_of_a_person_standing_half_the
         import cv2
         ever = cv2.dilate(ever.astype(np.uint8), np.ones((15, 15), np.uint8)).astype(bool)
         assert (~known & ~ever).mean() < 0.01
+
+
+class _OnAccess(Mapping):
+    """Frames per camera handed out as fresh copies, counting who holds what: the lazy
+    mapping a run passes (``io.synchronised.FramesByCamera``), with a ledger."""
+
+    def __init__(self, frames):
+        self._frames, self.taken, self.alive, self.most_alive = frames, [], set(), 0
+
+    def __getitem__(self, name):
+        copy = _Tracked(self._frames[name])
+        copy.owner, copy.ledger = name, self
+        self.taken.append(name)
+        self.alive.add(id(copy))
+        self.most_alive = max(self.most_alive, len(self.alive))
+        return copy
+
+    def __contains__(self, name):
+        return name in self._frames
+
+    def __iter__(self):
+        return iter(self._frames)
+
+    def __len__(self):
+        return len(self._frames)
+
+
+class _Tracked(np.ndarray):
+    """An array that leaves its ledger's ``alive`` set when garbage-collected."""
+
+    def __new__(cls, array):
+        return np.array(array).view(cls)
+
+    def __array_finalize__(self, obj):
+        self.ledger = None
+
+    def __del__(self):
+        if self.ledger is not None:
+            self.ledger.alive.discard(id(self))
+
+
+def test_learnt_plates_take_one_camera_s_frames_at_a_time(still_walk):
+    from voxelmocap.grid import VoxelGrid
+
+    rig, frames, _, _, _ = still_walk
+    coarse = VoxelGrid.from_rig(rig, 50.0, min_views=3, height=2500, probe_height=1000)
+    cfg = SilhouetteConfig()
+    lazy = _OnAccess(frames)
+    from_lazy = learn_plates(lazy, rig, coarse, cfg)
+    names = [c.name for c in rig]
+    assert lazy.taken == names + names           # downscaled copies, then the final medians
+    assert lazy.most_alive == 1                  # never two cameras' frames at once
+    for n, plate in learn_plates(frames, rig, coarse, cfg).items():
+        np.testing.assert_array_equal(from_lazy[n].plate, plate.plate)
+        np.testing.assert_array_equal(from_lazy[n].sigma, plate.sigma)
+        np.testing.assert_array_equal(from_lazy[n].known, plate.known)
 
 
 def test_plates_from_the_true_covers_are_the_true_background_where_it_was_seen(still_walk):
@@ -276,7 +334,7 @@ def test_auto_grid_encloses_a_body_with_extended_limbs():
     backgrounds = {c.name: PlateBackground(np.zeros((240, 320)), 2.0, shadows=False)
                    for c in cams}
     stage = MeasurementStage(cams, coarse, backgrounds, holes=1, person_only=True)
-    samples = {c.name: (m[None] * 255).astype(np.uint8) for c, m in zip(cams, masks, strict=True)}
+    samples = [{c.name: (m * 255).astype(np.uint8) for c, m in zip(cams, masks, strict=True)}]
     grid = person_grid(stage, samples, 20.0, margin=200.0)
     pts = truth_grid.centres()[body.reshape(-1)]
     assert np.all(pts >= grid.low) and np.all(pts <= grid.high)

@@ -8,13 +8,13 @@ synchronised frame 1.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 
 import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["SynchronisedVideos"]
+__all__ = ["FramesByCamera", "SynchronisedVideos"]
 
 
 class SynchronisedVideos:
@@ -75,19 +75,47 @@ class SynchronisedVideos:
             Per camera: ``(H, W, 3)`` uint8 BGR for colour cameras, ``(H, W)`` uint8 for grey ones.
         """
         wanted = self.check_frames(self.frame_numbers if frames is None else frames)
-        readers = {cam: self._streams[cam].read([self.starts[cam] + f - 2 for f in wanted])
-                   for cam in self.camera_names}
-        sizes = {cam: tuple(self.rig[cam].size) for cam in self.camera_names}
+        readers = {cam: self._camera_reader(cam, wanted) for cam in self.camera_names}
         for f in wanted:
-            images = {}
-            for cam, reader in readers.items():
-                _, image = next(reader)
-                if (image.shape[1], image.shape[0]) != sizes[cam]:
-                    raise InputError(self._streams[cam].path,
-                                     f"frame size {image.shape[1]}x{image.shape[0]} differs from "
-                                     f"the calibration's {sizes[cam][0]}x{sizes[cam][1]}")
-                images[cam] = image
-            yield f, images
+            yield f, {cam: next(reader)[1] for cam, reader in readers.items()}
+
+    def camera_frames(self, camera: str, frames: Iterable[int] | None = None
+                      ) -> Iterator[tuple[int, np.ndarray]]:
+        """Iterate one camera's images of synchronised frames.
+
+        The images are those :meth:`frames` yields for ``camera`` (the same decoding steps), so
+        a caller that needs one camera at a time need not hold the others.
+
+        Parameters
+        ----------
+        camera : str
+            One of ``camera_names``.
+        frames : iterable of int, optional
+            1-based synchronised frame numbers (all by default).
+
+        Yields
+        ------
+        F : int
+            The synchronised frame number.
+        image : (H, W, 3) or (H, W) uint8 ndarray
+        """
+        wanted = self.check_frames(self.frame_numbers if frames is None else frames)
+        yield from self._camera_reader(camera, wanted)
+
+    def _camera_reader(self, cam: str, wanted: list[int]) -> Iterator[tuple[int, np.ndarray]]:
+        """``(F, image)`` of camera ``cam`` for sorted valid frames, each checked for size."""
+        size = tuple(self.rig[cam].size)
+        for f, (_, image) in zip(wanted, self._streams[cam].read(
+                [self.starts[cam] + f - 2 for f in wanted]), strict=True):
+            if (image.shape[1], image.shape[0]) != size:
+                raise InputError(self._streams[cam].path,
+                                 f"frame size {image.shape[1]}x{image.shape[0]} differs from "
+                                 f"the calibration's {size[0]}x{size[1]}")
+            yield f, image
+
+    def by_camera(self, frames: Iterable[int]) -> FramesByCamera:
+        """Sampled frames as a mapping camera → (F, H, W[, C]) decoded when a camera is asked for."""
+        return FramesByCamera(self, frames)
 
     def read_frame(self, frame: int) -> dict[str, np.ndarray]:
         """The images of one synchronised frame ``{camera: image}``."""
@@ -96,3 +124,50 @@ class SynchronisedVideos:
     def camera(self, name: str):
         """One camera of the rig."""
         return self.rig[name]
+
+
+class FramesByCamera(Mapping):
+    """Frames of a sequence per camera, decoded each time a camera's are asked for.
+
+    ``frames[camera]`` is the (F, H, W, C) (or (F, H, W) for a grey camera) uint8 stack of the
+    images :meth:`SynchronisedVideos.frames` would yield for that camera. Nothing is kept: a
+    consumer that takes one camera at a time (:func:`voxelmocap.measure.background.learn_plates`)
+    holds one camera's frames, not the rig's, at the price of decoding again.
+
+    Parameters
+    ----------
+    sequence : SynchronisedVideos
+    frames : iterable of int
+        1-based synchronised frame numbers (sorted on the way in).
+    """
+
+    def __init__(self, sequence: SynchronisedVideos, frames: Iterable[int]):
+        self.sequence = sequence
+        #: the frame numbers, sorted
+        self.numbers = sequence.check_frames(frames)
+
+    def __getitem__(self, camera: str) -> np.ndarray:
+        if camera not in self.sequence.camera_names:
+            raise KeyError(camera)
+        out = None
+        for i, (_, image) in enumerate(self.sequence.camera_frames(camera, self.numbers)):
+            if out is None:
+                out = np.empty((len(self.numbers), *image.shape), image.dtype)
+            out[i] = image
+        return out if out is not None else np.empty((0, 0, 0, 3), np.uint8)
+
+    def __contains__(self, camera) -> bool:
+        # Mapping's own test would decode the camera's frames to answer
+        return camera in self.sequence.camera_names
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.sequence.camera_names)
+
+    def __len__(self) -> int:
+        return len(self.sequence.camera_names)
+
+    def frames(self, indices: Iterable[int] | None = None) -> Iterator[dict[str, np.ndarray]]:
+        """The images of every camera, one sampled frame at a time (``indices`` into
+        :attr:`numbers`; all by default)."""
+        numbers = self.numbers if indices is None else [self.numbers[i] for i in indices]
+        return (images for _, images in self.sequence.frames(numbers))

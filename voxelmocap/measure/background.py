@@ -120,7 +120,9 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
     Parameters
     ----------
     frames : mapping of str to (F, H, W, C) uint8 ndarray
-        The same ``F`` sampled frames of every camera (spread over the sequence).
+        The same ``F`` sampled frames of every camera (spread over the sequence). Each camera's
+        are taken twice, one camera at a time: a mapping that decodes them on access keeps one
+        camera's full frames in memory, not the rig's.
     cameras : sequence of Camera
         The rig (names key ``frames``).
     grid : VoxelGrid
@@ -156,20 +158,22 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
     missing = [n for n in names if n not in frames]
     if missing:
         raise InputError("background", f"no frames for camera(s) {', '.join(missing)}")
-    full = {n: np.asarray(frames[n]) for n in names}
-    full = {n: (f[..., None] if f.ndim == 3 else f) for n, f in full.items()}
-    counts = {len(f) for f in full.values()}
-    if len(counts) != 1 or 0 in counts:
-        raise InputError("background", "every camera needs the same, non-zero number of frames")
-    n_frames = counts.pop()
     if holes is None:
         holes = 1 if len(cameras) >= 4 else 0
+    # One camera's full frames at a time (``frames`` may decode on access): the iterations run
+    # on the downscaled copies, the full frames come back only for the final medians.
     small, small_cams = {}, []
     for cam in cameras:
         small_cams.append(camera_at_most(cam, max_side))
-        small[cam.name] = np.stack([_channels(cv2.resize(f, small_cams[-1].size,
-                                                         interpolation=cv2.INTER_AREA))
-                                    for f in full[cam.name]])
+        full = frames[cam.name]
+        small[cam.name] = [_channels(cv2.resize(f, small_cams[-1].size,
+                                                interpolation=cv2.INTER_AREA)) for f in full]
+        del full
+    counts = {len(f) for f in small.values()}
+    if len(counts) != 1 or 0 in counts:
+        raise InputError("background", "every camera needs the same, non-zero number of frames")
+    n_frames = counts.pop()
+    small = {n: np.stack(f) for n, f in small.items()}
     carver = Carver(small_cams, grid)
 
     plates = {n: plate_from_frames(small[n], config, unstable=False) for n in names}
@@ -236,7 +240,7 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
         log(f"warning: the person carves into {typical * grid.voxel_size ** 3 / 1e6:.0f} litres "
             "only: the learnt plate may still hold the person (who moved too little in the "
             "sampled frames); empty background videos would be better")
-    return plates_from_covers(full, cameras, covered, config)
+    return plates_from_covers(frames, cameras, covered, config)
 
 
 def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
@@ -252,7 +256,7 @@ def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
     Parameters
     ----------
     frames : mapping of str to (F, H, W, C) or (F, H, W) uint8 ndarray
-        The same ``F`` frames of every camera.
+        The same ``F`` frames of every camera, taken one camera at a time.
     cameras : sequence of Camera
         The rig (names key ``frames`` and ``covers``).
     covers : mapping of str to (F, h, w) bool ndarray
@@ -272,6 +276,7 @@ def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
     config = config or _DEFAULT
     out = {}
     for cam in cameras:
+        frames_c = None                          # the previous camera's frames go first
         frames_c = np.asarray(frames[cam.name])
         frames_c = frames_c[..., None] if frames_c.ndim == 3 else frames_c
         cover = np.asarray(covers[cam.name], bool)

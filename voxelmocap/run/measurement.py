@@ -45,16 +45,18 @@ OUTLIER_BOX = 2.0
 GRID_FRAMES = 20
 
 
-def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxel_size: float,
-                *, margin: float, bytes_per_voxel: float | None = None, masks=None):
+def person_grid(stage: MeasurementStage, samples: Iterable[Mapping[str, np.ndarray]],
+                voxel_size: float, *, margin: float, bytes_per_voxel: float | None = None,
+                masks=None):
     """The grid around the person: the box of the person's voxels over sampled frames.
 
     Parameters
     ----------
     stage : MeasurementStage
         A stage on a coarse grid (its ``person_only`` keeps the largest component per frame).
-    samples : mapping of str to (F, H, W, C) uint8 ndarray
-        Sampled frames per camera.
+    samples : iterable of mapping of str to (H, W, C) uint8 ndarray
+        Sampled frames, each the images of every camera (e.g. ``Sequence.frames(numbers)``
+        without the numbers: one frame in memory at a time).
     voxel_size : float
         Voxel edge of the grid returned (mm).
     margin : float
@@ -76,10 +78,11 @@ def person_grid(stage: MeasurementStage, samples: Mapping[str, np.ndarray], voxe
     from ..grid import VoxelGrid
 
     coarse = stage.grid
-    n = len(next(iter(samples.values())))
+    n = 0
     boxes = []
-    for f in range(n):
-        obs = stage.measure({c: samples[c][f] for c in stage.names},
+    for f, images in enumerate(samples):
+        n += 1
+        obs = stage.measure({c: images[c] for c in stage.names},
                             masks=None if masks is None else masks[f])
         ijk = np.argwhere(obs.occupancy)
         if len(ijk):
@@ -215,7 +218,7 @@ class MeasurementRunner(MeasurementStage):
         if self.learnt_plate:
             if plate_body is not None:
                 numbers = spread(plate_body.frames, silhouette.plate_frames)
-                samples = self._read_frames(seq, numbers)
+                samples = seq.by_camera(numbers)
                 states = plate_body.states[np.searchsorted(plate_body.frames, numbers)]
                 plain = [cam for cam in rig if cam.name in missing]  # the others have videos
                 seen = max(silhouette.plate_min_seen,
@@ -225,12 +228,12 @@ class MeasurementRunner(MeasurementStage):
                     dataclasses.replace(silhouette, plate_min_seen=seen))
                 how = f"the person where the body of {plate_body.source} was"
             else:
-                samples = self._sample_frames(seq, silhouette.plate_frames)
+                samples = seq.by_camera(spread(seq.frame_numbers, silhouette.plate_frames))
                 plates = learn_plates(samples, rig, coarse, silhouette, holes=holes,
                                       log=self._say)
                 how = "the person found by carving"
             self._say(f"no background video for {', '.join(missing)}: background plate learnt "
-                      f"from {len(next(iter(samples.values())))} frames of the sequence, {how} "
+                      f"from {len(samples.numbers)} frames of the sequence, {how} "
                       "(noise σ " + ", ".join(f"{c} {plates[c].camera_sigma:.1f}"
                                                for c in missing) + " grey levels)")
             backgrounds = {c: plates[c] for c in missing}
@@ -262,13 +265,11 @@ class MeasurementRunner(MeasurementStage):
             grid.check_memory(8.0, what="the measurement volumes")
         elif placement == "person" and not self.adaptive:
             if samples is None:
-                samples = self._sample_frames(seq, GRID_FRAMES)
+                samples = self._spread_frames(seq, GRID_FRAMES)
             else:
                 # the plate's samples, thinned: each one segments every camera (with GrabCut
                 # on a learnt plate's never-seen pixels), and 20 spread frames place the box
-                n = len(next(iter(samples.values())))
-                pick = spread_indices(n, GRID_FRAMES)
-                samples = {c: v[pick] for c, v in samples.items()}
+                samples = samples.frames(spread_indices(len(samples.numbers), GRID_FRAMES))
             stage = MeasurementStage(rig, coarse, backgrounds, silhouette, holes=holes,
                                      person_only=True, hole_reach=mc.carve_hole_reach)
             grid = person_grid(stage, samples, mc.voxel_size, margin=mc.grid_margin,
@@ -306,7 +307,7 @@ class MeasurementRunner(MeasurementStage):
             grid.check_memory(8.0, what="the measurement volumes")
         elif placement == "person":
             coarse = _coarse_grid(rig, mc)
-            samples = self._sample_frames(seq, GRID_FRAMES)
+            samples = self._spread_frames(seq, GRID_FRAMES)
             given = [m for _, m in person_masks.read(spread(seq.frame_numbers, GRID_FRAMES))]
             stage = MeasurementStage(rig, coarse, None, mc.silhouette, holes=holes,
                                      person_only=True, hole_reach=mc.carve_hole_reach)
@@ -323,18 +324,10 @@ class MeasurementRunner(MeasurementStage):
                                   hole_reach=mc.carve_hole_reach)
         self.sequence = seq
 
-    def _sample_frames(self, seq, count: int) -> dict[str, np.ndarray]:
-        """``count`` frames spread evenly over the sequence, per camera (F, H, W, C) uint8."""
-        return self._read_frames(seq, spread(seq.frame_numbers, count))
-
     @staticmethod
-    def _read_frames(seq, numbers) -> dict[str, np.ndarray]:
-        """The frames ``numbers`` of every camera, (F, H, W, C) uint8."""
-        out = {cam: [] for cam in seq.camera_names}
-        for _, images in seq.frames(numbers):
-            for cam in seq.camera_names:
-                out[cam].append(images[cam])
-        return {cam: np.stack(v) for cam, v in out.items()}
+    def _spread_frames(seq, count: int) -> Iterator[dict[str, np.ndarray]]:
+        """The images of ``count`` frames spread evenly over the sequence, one frame at a time."""
+        return (images for _, images in seq.frames(spread(seq.frame_numbers, count)))
 
     @property
     def stage(self) -> MeasurementRunner:
