@@ -1,6 +1,6 @@
 """A rendered sequence, in memory, of a person who stands still for the first half and then walks.
 
-Used by the tests of the learnt background plate (``tests/test_background.py``): the renderer's
+Used by the tests of the learnt background plate (``tests/measure/test_background.py``): the renderer's
 own empty-scene image is the true background the plate must recover.
 """
 
