@@ -18,7 +18,8 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
   measurement settings of a ``track --config`` file.
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
   mean error, share within 100 mm (head top excluded: MediaPipe has no head top); ``--every N``
-  also prints every N-th frame's error per landmark.
+  also prints every N-th frame's error per landmark; ``--frame-offset N``: the run's frame F is
+  the demo's frame F + N (a ``scripts/make_guise.py --first-frame N+1`` guise).
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs
   (``--name``: the files' stem).
 * ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
@@ -261,7 +262,7 @@ def landmarks(args) -> None:
     per = {k: [] for k in LANDMARK_MAP}
     rows = []
     for i, f in enumerate(result.frames):
-        truth = ref["points_mm"][int(f) - 1]
+        truth = ref["points_mm"][int(f) - 1 + args.frame_offset]
         row = {}
         for j, name in enumerate(LANDMARK_NAMES):
             if name not in LANDMARK_MAP:
@@ -515,6 +516,9 @@ def main(argv=None) -> int:
         if name == "landmarks":
             p.add_argument("--every", type=int, default=0,
                            help="also print every EVERY-th frame's errors per landmark")
+            p.add_argument("--frame-offset", type=int, default=0, metavar="N",
+                           help="the run's frame F is the reference's frame F + N (a guise "
+                                "of scripts/make_guise.py --first-frame N+1)")
         if name == "oracle-track":
             p.add_argument("--seed", type=int, default=0)
             p.add_argument("--cues", help="track --cues (default: the config's)")
