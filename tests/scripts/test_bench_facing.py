@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -11,17 +9,10 @@ import pytest
 
 from voxelmocap.joints import LANDMARK_ENDPOINTS, LANDMARK_NAMES
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
-
 
 @pytest.fixture(scope="module")
-def bench():
-    sys.path.insert(0, str(SCRIPTS))
-    try:
-        import bench_facing
-    finally:
-        sys.path.remove(str(SCRIPTS))
-    return bench_facing
+def bench(load_script):
+    return load_script("bench_facing")
 
 
 def test_plan_is_the_issues_protocols(bench):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import cv2
@@ -16,19 +15,13 @@ from voxelmocap.io.sequence import open_sequence
 from voxelmocap.io.video import VideoStream, find_videos
 from voxelmocap.synth import default_rig_path
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
 NAMES = ("cam01", "cam02", "cam03")
 CONFIG = "[project]\nframe_rate = 'auto' # fps\n\n[calibration.convert.qualisys]\nbinning_factor = 1\n"
 
 
 @pytest.fixture(scope="module")
-def guise():
-    sys.path.insert(0, str(SCRIPTS))
-    try:
-        import make_guise
-    finally:
-        sys.path.remove(str(SCRIPTS))
-    return make_guise
+def guise(load_script):
+    return load_script("make_guise")
 
 
 @pytest.fixture(scope="module")
