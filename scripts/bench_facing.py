@@ -12,8 +12,8 @@ Protocols (``--protocol``):
   first noise seed of ``--noise-seeds``, 45, 135, 225, 315 with the second; the first 40 frames;
   tracking seeds 0 and 1: 5 × 8 × 2 = 80 runs. Acceptance (issue 33): facing right in ≥ 79,
   left/right right in ≥ 78.
-* ``accuracy``: heading 0, 100 frames, both noise seeds, tracking seeds 0, 1, 2 (30 runs).
-  Acceptance: no run's μ above 60 mm, mean μ ≤ 40 mm.
+* ``accuracy``: heading 0, 100 frames, both noise seeds (or the one ``--noise-seeds`` names),
+  tracking seeds 0, 1, 2 (30 runs). Acceptance: no run's μ above 60 mm, mean μ ≤ 40 mm.
 
 Per run:
 
@@ -26,12 +26,22 @@ Per run:
   the true left one; right on every limb = all four pairs right.
 * **turned round at**: the first frame from which the heading error stays within 45° to the end
   (``evaluation.first_lasting_frame``; "never" when the last frame is off).
-* μ (mean landmark error, mm) and MMTA (δ = 100 mm), wall time and seconds per frame.
+* μ (mean landmark error, mm) and MMTA (δ = 100 mm), wall time and seconds per frame; the
+  frames the tracker flagged without a person (not scored: every one flagged makes μ NaN).
 
 ``--start-turned`` starts every run from the render's ground truth turned 180° on purpose (the
 config keys ``init.method = "ground_truth"`` and ``init.start_turned = true``, the tracker's test
 hook) and reports at which frame each run turned round (issue 33: within 30 frames, counted here
 as "turned round at" frame 30 or earlier).
+
+``--no-plate`` (issue 34) tracks a copy stripped of the ``Background/`` videos too
+(``renders/<render>/stripped_noplate/``): the tracker learns its plate from the sequence itself
+(``measurement.silhouette.plate_passes`` passes, ``voxelmocap.run.plan``); its runs go to their
+own folder (default tag ``<commit>_default_noplate``, marked by a ``no_plate`` file; a
+``--tag`` holding runs of the other kind is refused, not resumed), each record says
+``"no_plate": true``. Compare with the
+with-plate runs of the same renders and seeds (``--protocol accuracy``: issue 34 asks every
+clip's no-plate mean μ within 10 % of its with-plate one).
 
 A render whose ground truth leaves the cameras' common view (some endpoint unseen by some camera,
 ``voxelmocap.synth.heading.frames_out_of_view``) is reported, and its runs are marked ``!``.
@@ -40,7 +50,8 @@ Everything is cached under ``--out``: renders by (clip, heading, noise seed, fra
 ``renders/``, runs in ``<protocol>/<tag>/<render>/seed<k>/`` (a run whose result and
 ``score.json`` exist is not run again; an interrupted one resumes). ``<tag>`` names the code and
 settings: ``--tag``, by default ``<commit>_default`` or ``<commit>_cfg-<hash of the config>``
-when ``--config`` / ``--set`` / ``--start-turned`` change it (``<commit>`` the checkout's short
+when ``--config`` / ``--set`` / ``--start-turned`` change it, ``_noplate`` appended with
+``--no-plate`` (``<commit>`` the checkout's short
 hash, ``-dirty`` with uncommitted changes under ``voxelmocap/``), so a new commit never reuses
 an older one's results; pass ``--tag`` to resume across commits. The records go to
 ``<protocol>/<tag>/results.json`` and ``results.csv``, the printed summary to ``summary.txt``.
@@ -50,7 +61,7 @@ Usage::
     python scripts/bench_facing.py [--protocol facing|accuracy] [--out /tmp/voxelmocap_facing]
         [--clips Walking,Jog] [--headings 0,180] [--seeds 0,1] [--noise-seeds 1,2]
         [--frames N] [--jobs 2] [--config F.toml] [--set filter.particles=300 ...]
-        [--tag NAME] [--start-turned] [--mocap DIR] [--dry-run]
+        [--tag NAME] [--start-turned | --no-plate] [--mocap DIR] [--dry-run]
 """
 
 from __future__ import annotations
@@ -97,7 +108,8 @@ def plan(protocol: str, *, clips=None, headings=None, seeds=None, noise_seeds=(1
     """Every run of a protocol (filtered), as dicts naming its render and tracking seed.
 
     The noise seed of heading ``h`` is ``noise_seeds[0]`` for even multiples of 45° and
-    ``noise_seeds[1]`` for odd ones (facing); the accuracy protocol renders every clip with both.
+    ``noise_seeds[1]`` for odd ones (facing); the accuracy protocol renders every clip with each
+    (both by default, one when one is given).
     """
     p_headings, p_frames, p_seeds = PROTOCOLS[protocol]
     headings = p_headings if headings is None else headings
@@ -109,7 +121,7 @@ def plan(protocol: str, *, clips=None, headings=None, seeds=None, noise_seeds=(1
             continue
         for heading in headings:
             if protocol == "accuracy":
-                noises = noise_seeds
+                noises = tuple(dict.fromkeys(noise_seeds))
             else:
                 odd = round(heading / 45.0) % 2 == 1
                 noises = (noise_seeds[1 if odd else 0],)
@@ -134,35 +146,47 @@ def _write_json(path: Path, data) -> None:
     atomic_write_text(path, json.dumps(data, indent=1) + "\n")
 
 
-def make_render(render: dict, renders: str, mocap: str) -> dict:
-    """Render (or reuse) one clip at one heading; its stripped copy; the common-view check."""
+#: Stripped copy of a render tracked without (``True``) and with (``False``) its background
+#: videos, in ``renders/<render>/``.
+STRIPPED = {False: "stripped", True: "stripped_noplate"}
+
+
+def make_render(render: dict, renders: str, mocap: str, no_plate: bool = False) -> dict:
+    """Render (or reuse) one clip at one heading; its stripped copy (and with ``no_plate`` the
+    copy without the background videos too, made here once per render, not by its runs, which
+    may run side by side); the common-view check."""
     from voxelmocap.io.humaneva import Dataset
     from voxelmocap.synth import generate
     from voxelmocap.synth.heading import frames_out_of_view
 
     folder = Path(renders) / render["key"]
-    done = folder / "render.json"
+    data, done = folder / "data", folder / "render.json"
     if done.exists():
-        return {**json.loads(done.read_text()), "cached": True}
-    data = folder / "data"
-    t0 = time.perf_counter()
-    generate(data, motion=str(Path(mocap) / render["clip"]), frames=render["frames"],
-             subject=render["subject"], action=render["action"], start=render["start"],
-             seed=render["noise_seed"], heading_deg=render["heading"], progress=False)
-    seconds = time.perf_counter() - t0
-    stripped_copy(data, render["subject"], folder / "stripped")
-    seq = Dataset(data).sequence(render["subject"], f"{render['action']}_1")
-    miss = frames_out_of_view(seq.rig, seq.ground_truth().endpoints)
-    info = {**render, "render_seconds": round(seconds, 1),
-            "out_of_view_frames": [int(f) + 1 for f in np.flatnonzero(miss.any(axis=1))],
-            "out_of_view_cameras": sorted(c for c, m in zip(seq.rig.names, miss.any(axis=0),
-                                                             strict=True) if m)}
-    _write_json(done, info)
+        info = {**json.loads(done.read_text()), "cached": True}
+    else:
+        t0 = time.perf_counter()
+        generate(data, motion=str(Path(mocap) / render["clip"]), frames=render["frames"],
+                 subject=render["subject"], action=render["action"], start=render["start"],
+                 seed=render["noise_seed"], heading_deg=render["heading"], progress=False)
+        seconds = time.perf_counter() - t0
+        stripped_copy(data, render["subject"], folder / STRIPPED[False])
+        seq = Dataset(data).sequence(render["subject"], f"{render['action']}_1")
+        miss = frames_out_of_view(seq.rig, seq.ground_truth().endpoints)
+        info = {**render, "render_seconds": round(seconds, 1),
+                "out_of_view_frames": [int(f) + 1 for f in np.flatnonzero(miss.any(axis=1))],
+                "out_of_view_cameras": sorted(c for c, m in zip(seq.rig.names, miss.any(axis=0),
+                                                                 strict=True) if m)}
+        _write_json(done, info)
+    if no_plate:
+        stripped_copy(data, render["subject"], folder / STRIPPED[True], keep_background=False)
     return info
 
 
-def run_one(run: dict, renders: str, runs_dir: str, config_toml: str) -> dict:
-    """Track one stripped render (resuming), score it, write ``score.json``; the record."""
+def run_one(run: dict, renders: str, runs_dir: str, config_toml: str,
+            no_plate: bool = False) -> dict:
+    """Track one stripped render (resuming), score it, write ``score.json``; the record.
+
+    ``no_plate``: track the copy without the background videos too (``stripped_noplate``)."""
     from voxelmocap.config import config_from_toml
     from voxelmocap.io.humaneva import Dataset
     from voxelmocap.io.reports import score_against
@@ -182,7 +206,7 @@ def run_one(run: dict, renders: str, runs_dir: str, config_toml: str) -> dict:
     # ground_truth with init.start_turned): a start exactly 180° wrong, with left and right
     # exchanged; without it the copy stripped of the answer is tracked
     config = config_from_toml(config_toml, "bench config")
-    source = folder / ("data" if config.init.start_turned else "stripped")
+    source = folder / ("data" if config.init.start_turned else STRIPPED[no_plate])
     outcome = track_sequence(source, run["subject"], seq_name, run_dir,
                              config=config, seed=run["seed"], frames=f"1:{run['frames']}",
                              resume=True,
@@ -194,7 +218,7 @@ def run_one(run: dict, renders: str, runs_dir: str, config_toml: str) -> dict:
               "wall_seconds": round(wall, 1), "cpu_seconds": round(cpu, 1),
               "seconds_per_frame": outcome.seconds_per_frame,
               "resumed_from": outcome.resumed_from, "init_method": outcome.init_method,
-              "out_of_view_frames": len(render["out_of_view_frames"])}
+              "out_of_view_frames": len(render["out_of_view_frames"]), "no_plate": no_plate}
     (run_dir / "messages.txt").write_text("\n".join(messages) + "\n")
     _write_json(score, record)
     return record
@@ -223,6 +247,7 @@ def judge(ev) -> dict:
     with np.errstate(invalid="ignore"):
         lasting = first_lasting_frame(np.abs(angle) <= FACING_TOLERANCE)
     return {"judge_frame": judge_frame, "heading_error_deg": error,
+            "frames_without_person": int((~np.asarray(ev.est_enabled).any(axis=1)).sum()),
             "facing_right": bool(error <= FACING_TOLERANCE), "left_right": pairs,
             "left_right_right": bool(all(pairs.values())),
             "turned_round_at": None if lasting is None else int(frames[lasting]),
@@ -255,6 +280,8 @@ def run_line(r: dict) -> str:
     wrong = [k.split("/")[0][2:] for k, ok in r["left_right"].items() if not ok]
     turned = r["turned_round_at"] if r["turned_round_at"] is not None else "never"
     view = " !out of view" if r.get("out_of_view_frames") else ""
+    nobody = r.get("frames_without_person")
+    view += f" !{nobody} frames without a person" if nobody else ""
     return (f"{r['action']:<9s} h{r['heading']:>4.0f} n{r['noise_seed']} seed {r['seed']}: "
             f"heading err {r['heading_error_deg']:5.1f}° at frame {r['judge_frame']} "
             f"{'ok   ' if r['facing_right'] else 'WRONG'}  L/R "
@@ -307,7 +334,8 @@ def write_tables(records, folder: Path, text: str) -> None:
     from voxelmocap.io._atomic import atomic_write_text
 
     _write_json(folder / "results.json", records)
-    cols = ["action", "heading", "noise_seed", "seed", "frames", "heading_error_deg",
+    cols = ["action", "heading", "noise_seed", "seed", "frames", "frames_without_person",
+            "no_plate", "heading_error_deg",
             "facing_right", "left_right_right", "turned_round_at", "mu_mm", "mmta_pct",
             "wall_seconds", "cpu_seconds", "seconds_per_frame", "out_of_view_frames"]
     buf = io.StringIO()
@@ -340,7 +368,21 @@ def build_config(args):
         return text, args.tag
     settings = ("default" if text == config_to_toml(TrackConfig())
                 else "cfg-" + hashlib.sha1(text.encode()).hexdigest()[:8])
-    return text, f"{code_version()}_{settings}"
+    return text, f"{code_version()}_{settings}" + ("_noplate" if args.no_plate else "")
+
+
+def check_plate_kind(runs_dir: Path, no_plate: bool) -> None:
+    """A run folder holds runs of one kind, with the background videos or (marked by its file
+    ``no_plate``) without: SystemExit when it already holds runs of the other kind; else the
+    mark made (``no_plate``)."""
+    marked = (runs_dir / "no_plate").exists()
+    if marked != no_plate and any(runs_dir.glob("*/seed*")):
+        raise SystemExit(f"{runs_dir}: holds runs {'without' if marked else 'with'} the "
+                         f"background videos; {'without' if no_plate else 'with'} them needs "
+                         "another --tag")
+    if no_plate:
+        runs_dir.mkdir(parents=True, exist_ok=True)
+        (runs_dir / "no_plate").touch()
 
 
 def code_version() -> str:
@@ -371,7 +413,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", help="comma-separated tracking seeds (default: the protocol's)")
     parser.add_argument("--noise-seeds", default="1,2",
                         help="render noise seeds: even and odd multiples of 45° (facing), or "
-                             "both (accuracy); default 1,2")
+                             "each (accuracy: one or more); default 1,2")
     parser.add_argument("--frames", type=int, help="frames per render (default: the protocol's)")
     parser.add_argument("--jobs", type=int, default=1, help="parallel processes (default 1)")
     parser.add_argument("--config", help="TOML config file passed to track")
@@ -383,6 +425,9 @@ def main(argv=None) -> int:
     parser.add_argument("--start-turned", action="store_true",
                         help="start every run turned 180° (init.start_turned = true) and report "
                              "when it turned round")
+    parser.add_argument("--no-plate", action="store_true",
+                        help="track a copy without the background videos too: the plate learnt "
+                             "from the sequence (issue 34)")
     parser.add_argument("--dry-run", action="store_true", help="list the runs and stop")
     args = parser.parse_args(argv)
 
@@ -394,8 +439,11 @@ def main(argv=None) -> int:
     if "holdout" in mocap.resolve().parts:
         raise SystemExit(f"{mocap}: the holdout clips are not for benchmarks")
     noise_seeds = _numbers(args.noise_seeds, int)
-    if len(noise_seeds) != 2:
+    if len(noise_seeds) != 2 and not (args.protocol == "accuracy" and noise_seeds):
         raise SystemExit(f"--noise-seeds: two seeds needed, got {args.noise_seeds!r}")
+    if args.no_plate and args.start_turned:
+        raise SystemExit("--no-plate tracks the stripped copy; --start-turned the ground truth: "
+                         "one or the other")
     if args.jobs < 1 or (args.frames is not None and args.frames < 1):
         raise SystemExit("--jobs and --frames must be positive")
     clips = set(args.clips.split(",")) if args.clips else None
@@ -413,11 +461,13 @@ def main(argv=None) -> int:
                 seeds=_numbers(args.seeds, int), noise_seeds=noise_seeds, frames=args.frames)
     out = Path(args.out)
     renders, runs_dir = out / "renders", out / args.protocol / tag
-    print(f"{len(runs)} runs ({args.protocol}, tag {tag}) in {runs_dir}", flush=True)
+    print(f"{len(runs)} runs ({args.protocol}{', no plate' if args.no_plate else ''}, tag "
+          f"{tag}) in {runs_dir}", flush=True)
     if args.dry_run:
         for r in runs:
             print(f"  {r['key']} seed {r['seed']}")
         return 0
+    check_plate_kind(runs_dir, args.no_plate)
     runs_dir.mkdir(parents=True, exist_ok=True)
     (runs_dir / "config.toml").write_text(config_toml)
     if args.jobs > 1:
@@ -428,7 +478,8 @@ def main(argv=None) -> int:
     # spawn, not fork: the workers start clean (no numba or BLAS threads inherited)
     with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {pool.submit(make_render, {k: v for k, v in r.items() if k != "seed"},
-                               str(renders), str(mocap)): key for key, r in unique.items()}
+                               str(renders), str(mocap), args.no_plate): key
+                   for key, r in unique.items()}
         for fut in as_completed(futures):
             try:
                 info = fut.result()
@@ -440,7 +491,8 @@ def main(argv=None) -> int:
                   + (f", leaves the common view in frames {info['out_of_view_frames']} "
                      f"({', '.join(info['out_of_view_cameras'])})"
                      if info["out_of_view_frames"] else ""), flush=True)
-        futures = {pool.submit(run_one, r, str(renders), str(runs_dir), config_toml): r
+        futures = {pool.submit(run_one, r, str(renders), str(runs_dir), config_toml,
+                               args.no_plate): r
                    for r in runs if (renders / r["key"] / "render.json").exists()}
         for fut in as_completed(futures):
             r = futures[fut]

@@ -38,16 +38,19 @@ from voxelmocap.run.pipeline import track_sequence
 from voxelmocap.synth import generate
 
 
-def stripped_copy(data: Path, subject: str, dest: Path, *, keep_body: bool = False) -> Path:
+def stripped_copy(data: Path, subject: str, dest: Path, *, keep_body: bool = False,
+                  keep_background: bool = True) -> Path:
     """``dest``: the data set with ``<subject>/Mocap_Data`` left out (links, not copies);
-    with ``keep_body`` the body file ``<subject>_body.toml`` stays (the ground truth goes)."""
+    with ``keep_body`` the body file ``<subject>_body.toml`` stays (the ground truth goes);
+    without ``keep_background`` the ``Background/`` videos go too (the tracker then learns its
+    plate from the sequence)."""
     if dest.exists():
         return dest
     tmp = dest.with_name(dest.name + ".building")
     shutil.rmtree(tmp, ignore_errors=True)
     for path in data.rglob("*"):
         rel = path.relative_to(data)
-        if rel.parts[0] not in (subject, "Background"):
+        if rel.parts[0] not in ((subject, "Background") if keep_background else (subject,)):
             continue
         if "Mocap_Data" in rel.parts and not (keep_body and path.name == f"{subject}_body.toml"):
             continue

@@ -30,6 +30,8 @@ def test_plan_is_the_issues_protocols(bench):
     assert {(r["noise_seed"], r["seed"]) for r in acc if r["action"] == "Jog"} == \
         {(n, s) for n in (7, 8) for s in (0, 1, 2)}
     assert all(r["frames"] == 100 for r in acc)
+    one = bench.plan("accuracy", noise_seeds=(7,), seeds=(0, 1))
+    assert len(one) == 10 and {r["noise_seed"] for r in one} == {7}
     sub = bench.plan("facing", clips={"Walking"}, headings=(0, 180), seeds=(1,), frames=10)
     assert [(r["action"], r["heading"], r["seed"], r["frames"]) for r in sub] == \
         [("Walking", 0, 1, 10), ("Walking", 180, 1, 10)]
@@ -88,7 +90,9 @@ def test_judge_a_right_a_backwards_and_a_turning_run(bench):
     # a frame flagged without a person (every endpoint disabled) leaves the verdicts alone
     ev = _ev(_turned(gt, 20.0), gt)
     ev.est_enabled[3] = False
-    assert bench.judge(ev)["left_right_right"]
+    judged = bench.judge(ev)
+    assert judged["left_right_right"] and judged["frames_without_person"] == 1
+    assert good["frames_without_person"] == 0
     # a short run is judged at its last frame
     assert bench.judge(_ev(gt[:6], gt[:6]))["judge_frame"] == 6
 
@@ -111,3 +115,50 @@ def test_summary_counts_and_tables(bench):
     assert "renders leaving the cameras' common view: none" in text
     assert any(line.startswith("Walking") and "1/2" in line for line in lines)
     assert "runs facing wrong or with a limb swapped (1):" in text
+
+
+def _tree(root: Path) -> Path:
+    """A HumanEva-like data set: ``Background/``, ``S1/`` with ``Mocap_Data``, another subject."""
+    for rel in ["Background/Background_1_(C1).avi", "S1/Image_Data/Walking_1_(C1).avi",
+                "S1/Calibration_Data/C1.cal", "S1/Mocap_Data/Walking_1.xml",
+                "S1/Mocap_Data/S1_body.toml", "S2/Image_Data/Jog_1_(C1).avi"]:
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(rel)
+    return root
+
+
+def _files(root: Path) -> set:
+    return {p.relative_to(root).as_posix() for p in root.rglob("*") if not p.is_dir()}
+
+
+def test_stripped_copies_with_and_without_the_plate(bench, tmp_path):
+    data = _tree(tmp_path / "data")
+    kept = bench.stripped_copy(data, "S1", tmp_path / bench.STRIPPED[False])
+    assert _files(kept) == {"Background/Background_1_(C1).avi",
+                            "S1/Image_Data/Walking_1_(C1).avi", "S1/Calibration_Data/C1.cal"}
+    bare = bench.stripped_copy(data, "S1", tmp_path / bench.STRIPPED[True], keep_background=False)
+    assert bare.name == "stripped_noplate"
+    assert _files(bare) == {"S1/Image_Data/Walking_1_(C1).avi", "S1/Calibration_Data/C1.cal"}
+    assert (bare / "S1/Image_Data/Walking_1_(C1).avi").is_symlink()  # links, not copies
+
+
+def test_no_plate_runs_have_their_own_folder(bench, tmp_path):
+    args = SimpleNamespace(config=None, set=[], start_turned=False, tag=None, no_plate=True)
+    _, tag = bench.build_config(args)
+    assert tag.endswith("_default_noplate")
+    args.no_plate = False
+    assert bench.build_config(args)[1].endswith("_default")
+    args.no_plate, args.tag = True, "mine"
+    assert bench.build_config(args)[1] == "mine"
+    # a folder with runs of one kind refuses the other
+    with_plate = tmp_path / "with"
+    (with_plate / "Walking_h0_n1_f100" / "seed0").mkdir(parents=True)
+    bench.check_plate_kind(with_plate, False)
+    with pytest.raises(SystemExit, match="holds runs with the background videos"):
+        bench.check_plate_kind(with_plate, True)
+    without = tmp_path / "without"
+    bench.check_plate_kind(without, True)
+    (without / "Walking_h0_n1_f100" / "seed0").mkdir(parents=True)
+    bench.check_plate_kind(without, True)
+    with pytest.raises(SystemExit, match="holds runs without the background videos"):
+        bench.check_plate_kind(without, False)
