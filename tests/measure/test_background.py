@@ -208,6 +208,56 @@ def test_plates_from_the_true_covers_are_the_true_background_where_it_was_seen(s
         plates_from_covers(frames, rig, {c: v[:-1] for c, v in covers.items()}, cfg)
 
 
+def test_a_person_who_barely_moves_is_left_out_of_the_plate():
+    """A person who stands and gestures is in the temporal median; only the moving arm carves
+    (far below :data:`MIN_PERSON_MM3`), so the column around it is covered: the plate keeps no
+    part of the body as background, and leaves the body's pixels unknown (the renderer's empty
+    scene and the person's true masks are the reference)."""
+    from still_fixture import render_still_then_walk
+
+    from voxelmocap.grid import VoxelGrid
+
+    rig, frames, truth, masks, points = render_still_then_walk(24, motion="gestures",
+                                                               still_share=0.0, shadow=False)
+    assert np.ptp(points[:, 0], axis=0).max() < 20          # the pelvis stays within 2 cm
+    coarse = VoxelGrid.from_rig(rig, 50.0, min_views=3, height=2500, probe_height=1000)
+    cfg = SilhouetteConfig()
+    lines = []
+    plates = learn_plates(frames, rig, coarse, cfg, log=lines.append)
+    assert any("left unknown within 0.4 m of the carved parts" in m for m in lines)
+    for cam in rig:
+        n = cam.name
+        body = masks[n].any(axis=0)
+        median = plate_from_frames(frames[n], cfg)
+        known = plates[n].known
+        wrong = np.abs(plates[n].plate - truth[n]).max(axis=2) > 15
+        wrong_median = np.abs(median.plate - truth[n]).max(axis=2) > 15
+        assert (wrong_median & body).sum() > 0.5 * body.sum()      # the median holds the body
+        assert (wrong & known).sum() < 0.001 * known.size
+        assert (body & ~known).sum() > 0.98 * body.sum()
+        assert (~known).mean() < cfg.plate_max_unknown           # still a plate
+
+
+def test_person_column_is_the_carved_floor_plan_grown_by_the_radius():
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure import background as bg
+
+    rng = np.random.default_rng(3)
+    grid = VoxelGrid((-1000, -800, -100), 100.0, (22, 18, 26))
+    person = np.zeros(grid.shape, bool)
+    person[tuple(rng.integers(0, s, 4) for s in grid.shape)] = True
+    column = bg.person_column(person, grid)
+    centres = grid.centres().reshape(*grid.shape, 3)
+    carved = centres[person]
+    # brute force: every voxel against every carved voxel
+    d = np.sqrt(((centres[:, :, :, None, :2] - carved[None, None, None, :, :2]) ** 2)
+                .sum(axis=-1)).min(axis=-1)
+    expected = (d <= bg.PERSON_COLUMN_RADIUS_MM) \
+        & (centres[..., 2] <= grid.low[2] + bg.PERSON_COLUMN_HEIGHT_MM)
+    np.testing.assert_array_equal(column, expected)
+    assert not bg.person_column(np.zeros(grid.shape, bool), grid).any()
+
+
 def test_a_person_who_never_moves_cannot_give_a_plate():
     from voxelmocap.camera import Camera
     from voxelmocap.grid import VoxelGrid
@@ -225,19 +275,7 @@ def test_a_person_who_never_moves_cannot_give_a_plate():
 # ---------------------------------------------------------------------- 3D rules
 def _ring_rig():
     """Four cameras on a circle of 4 m, 1.5 m up, looking at a point 0.9 m above the origin."""
-    from voxelmocap.camera import Camera
-
-    cams = []
-    for i, a in enumerate(np.radians([0, 90, 180, 270])):
-        c = np.array([4000 * np.cos(a), 4000 * np.sin(a), 1500.0])
-        z = np.array([0, 0, 900.0]) - c
-        z /= np.linalg.norm(z)
-        x = np.cross(z, [0, 0, 1.0])
-        x /= np.linalg.norm(x)
-        y = np.cross(z, x)
-        R = np.stack([x, y, z])
-        cams.append(Camera(f"C{i + 1}", (300, 300), (159.5, 119.5), R, -R @ c, size=(320, 240)))
-    return cams
+    return [_ring_camera(f"C{i + 1}", a) for i, a in enumerate(np.radians([0, 90, 180, 270]))]
 
 
 def _project_masks(cams, occupancy, grid):
@@ -309,6 +347,83 @@ def test_a_blob_in_one_view_carves_into_nothing_and_is_rejected():
     both = [a | b for a, b in zip(masks, _project_masks(cams, other, grid), strict=True)]
     two, _ = stage.carve(both)
     assert (two & other).sum() == 0 and (two & body).sum() > 0.95 * body.sum()
+
+
+def test_a_phantom_two_views_agree_on_at_the_edge_of_a_large_rig_is_not_the_person():
+    """Seven cameras on a ring: where only three see, two agreeing blobs carve a phantom (one
+    hole tolerated) larger than the person's few moving voxels; the person is searched only
+    where at least half the rig looks (four cameras), so the small real one is kept."""
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure.background import carve_person, watched_voxels
+    from voxelmocap.measure.carving import Carver
+
+    cams = [_ring_camera(f"C{i}", a) for i, a in enumerate(np.radians(np.arange(7) * 50.0))]
+    grid = VoxelGrid((-3000, -3000, 0), 100.0, (60, 60, 20))
+    carver = Carver(cams, grid)
+    coverage = carver.coverage()
+    c = grid.centres().reshape(*grid.shape, 3)
+    hand = (np.abs(c[..., 0]) < 150) & (np.abs(c[..., 1]) < 150) & (np.abs(c[..., 2] - 1200) < 150)
+    assert coverage[hand].min() == 7
+    # the phantom: the voxels the same three cameras see, near one of them
+    seen_by = (carver.tables >= 0).reshape(len(cams), *grid.shape)
+    three = np.argwhere(coverage == 3)
+    centre = three[np.argmin(np.abs(three - np.array(grid.shape) / 2).sum(axis=1))]
+    who = seen_by[(slice(None), *centre)]
+    box = np.zeros(grid.shape, bool)
+    box[tuple(slice(max(0, k - 2), k + 3) for k in centre)] = True
+    phantom = box & (coverage == 3) & np.all(seen_by == who[:, None, None, None], axis=0)
+    assert phantom.sum() > 2 * hand.sum()
+    hand_masks = _project_masks(cams, hand, grid)
+    ghost_masks = _project_masks(cams, phantom, grid)
+    two = np.flatnonzero(who)[:2]
+    masks = [h | g if k in two else h
+             for k, (h, g) in enumerate(zip(hand_masks, ghost_masks, strict=True))]
+    everywhere = person_component(carver.carve_with_holes(masks, 1))
+    assert (everywhere & phantom).sum() >= phantom.sum() // 2 and not (everywhere & hand).any()
+    person = carve_person(carver, masks, 1)
+    assert (person & hand).sum() >= hand.sum() // 2 and not (person & phantom).any()
+    np.testing.assert_array_equal(watched_voxels(carver, 1), coverage >= 4)
+    # four cameras: the carving's own rule (three views for one hole), nothing more
+    four = Carver(cams[:4], grid)
+    np.testing.assert_array_equal(watched_voxels(four, 1), four.coverage() >= 3)
+
+
+def test_the_moving_parts_are_above_the_floor_a_cast_shadow_is_not():
+    """A waving arm (8 litres at shoulder height) and its shadow swept over the floor (a slab
+    one voxel high, larger): the shadow carves, and is the largest component; the moving parts
+    are the arm."""
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure.background import SHADOW_HEIGHT_MM, moving_parts
+    from voxelmocap.measure.carving import Carver
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-1200, -1200, 0), 50.0, (48, 48, 44))
+    c = grid.centres().reshape(*grid.shape, 3)
+    arm = (np.abs(c[..., 0] - 100) < 100) & (np.abs(c[..., 1]) < 100) \
+        & (np.abs(c[..., 2] - 1400) < 100)
+    shadow = (np.abs(c[..., 0] + 600) < 300) & (np.abs(c[..., 1] - 300) < 300) \
+        & (c[..., 2] < grid.voxel_size)
+    assert shadow.sum() > arm.sum() and c[..., 2][shadow].max() < SHADOW_HEIGHT_MM
+    masks = [a | s for a, s in zip(_project_masks(cams, arm, grid),
+                                   _project_masks(cams, shadow, grid), strict=True)]
+    carver = Carver(cams, grid)
+    found = person_component(carver.carve_with_holes(masks, 1))
+    assert (found & shadow).any() and not (found & arm).any()
+    parts = moving_parts(carver, masks, 1)
+    assert (parts & arm).sum() == arm.sum() and not (parts & shadow).any()
+
+
+def _ring_camera(name, angle, radius=4000.0):
+    """A 320 × 240 camera on a circle of ``radius`` mm, 1.5 m up, looking at (0, 0, 0.9 m)."""
+    from voxelmocap.camera import Camera
+
+    c = np.array([radius * np.cos(angle), radius * np.sin(angle), 1500.0])
+    z = np.array([0, 0, 900.0]) - c
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0, 0, 1.0])
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(z, x), z])
+    return Camera(name, (300, 300), (159.5, 119.5), R, -R @ c, size=(320, 240))
 
 
 def test_person_component_keeps_the_largest_and_joins_close_fragments():
@@ -443,6 +558,31 @@ def test_grabcut_decides_never_seen_pixels_from_the_frames_colours():
     np.testing.assert_array_equal(segment_with(blind, image, "grabcut"), np.ones((h, w), bool))
 
 
+def test_grabcut_decides_a_person_whose_pixels_were_all_never_seen():
+    """A person who barely moved is unknown from head to foot (no pixel of the person is known
+    foreground): GrabCut still separates it, its colour model started from the whole unknown
+    region against the known background around (GrabCut's rectangle use)."""
+    rng = np.random.default_rng(5)
+    h, w = 240, 200
+    plate = np.zeros((h, w, 3), np.float32)
+    plate[:] = (200, 190, 180)
+    plate[150:] = (120, 130, 140)                                  # a floor below the wall
+    plate += rng.normal(0, 2, plate.shape)
+    person = np.zeros((h, w), bool)
+    person[60:200, 85:115] = True
+    person[40:60, 92:108] = True
+    image = plate.copy()
+    image[person] = (40, 60, 150)
+    image = np.clip(image + rng.normal(0, 2, image.shape), 0, 255).astype(np.uint8)
+    known = np.ones((h, w), bool)
+    known[20:225, 40:160] = False                                  # the person and more
+    bg = PlateBackground(plate.clip(0, 255), 2.0, known)
+    assert not (person & known).any()
+    new = segment_with(bg, image, "grabcut")
+    assert (new & person).sum() / (new | person).sum() > 0.85
+    np.testing.assert_array_equal(new[known], False)
+
+
 def segment_with(bg, image, mode):
     from voxelmocap.measure.silhouette import segment
 
@@ -501,3 +641,22 @@ def test_the_observation_carries_the_plates_never_seen_pixels():
     np.testing.assert_array_equal(obs.known[1], unseen)
     plates["C2"] = PlateBackground(np.zeros((240, 320)), 2.0)
     assert MeasurementStage(cams, grid, plates, holes=1).measure(images).known is None
+
+
+def test_only_grey_cameras_abstain_where_their_plate_never_saw_the_background():
+    from voxelmocap.grid import VoxelGrid
+    from voxelmocap.measure.stage import MeasurementStage
+
+    cams = _ring_rig()
+    grid = VoxelGrid((-600, -600, 0), 40.0, (30, 30, 45))
+    unseen = np.ones((240, 320), bool)
+    unseen[50:90, 100:140] = False
+    plates = {c.name: PlateBackground(np.zeros((240, 320, 1 if c.name in ("C2", "C3") else 3)),
+                                      2.0, known=unseen if c.name != "C3" else None)
+              for c in cams}
+    stage = MeasurementStage(cams, grid, plates, holes=1)
+    # C1 and C4 have colour (GrabCut tells the person by it), C3 saw everything
+    assert stage.abstain[0] is None and stage.abstain[2] is None and stage.abstain[3] is None
+    np.testing.assert_array_equal(stage.abstain[1], ~unseen)
+    colour = {n: PlateBackground(np.zeros((240, 320, 3)), 2.0, known=unseen) for n in plates}
+    assert MeasurementStage(cams, grid, colour, holes=1).abstain is None

@@ -12,7 +12,11 @@ they move. :func:`learn_plates` removes the person from the plate with the camer
    (the largest 3D component, fragments within a few voxels merged), and project it back into
    each view: the convex hull of its voxels' pixels, dilated, is *covered* in that frame;
 3. a frame in which the person vanished (its volume far below the sequence's typical volume:
-   the person is in the plate, but where is unknown) covers its whole image;
+   the person is in the plate, but where is unknown) covers its whole image; when the typical
+   person itself is too small to be a person (:data:`MIN_PERSON_MM3`: someone who barely moves
+   is in the median and only the moving parts carve), every frame covers a person-sized
+   column (:func:`person_column`) around what the frames' silhouettes carve together above
+   the floor, so the body is left unknown rather than learnt as background;
 4. re-estimate each pixel's plate as the median of the frames where it is not covered, and
    repeat from 2 until the plates stop changing.
 
@@ -47,12 +51,22 @@ from ..errors import InputError
 from .carving import Carver
 from .plate import PlateBackground, _channels, camera_at_most, plate_from_frames
 
-__all__ = ["MIN_PERSON_MM3", "learn_plates", "person_component", "plates_from_covers"]
+__all__ = ["MIN_PERSON_MM3", "carve_person", "learn_plates", "moving_parts", "person_column",
+           "person_component", "plates_from_covers", "watched_voxels"]
 
 _DEFAULT = SilhouetteConfig()
 #: Smallest visual-hull volume of a person (mm³): 30 litres, below a small adult's body volume
 #: (≈ 60 litres) let alone its visual hull; a person carving into less is (partly) in the plate.
 MIN_PERSON_MM3 = 30e6
+#: The column around the carved parts of a person who barely moves (mm): the reach around each
+#: carved voxel and the height above the floor. Such a person is in the temporal median and only
+#: the moving parts (a hand, a swinging leg) carve; over the sampled frames their union sweeps
+#: the limbs' reach, and the torso they hang from is within 0.4 m of it horizontally and below
+#: 2 m, so that column is covered.
+PERSON_COLUMN_RADIUS_MM = 400.0
+PERSON_COLUMN_HEIGHT_MM = 2000.0
+#: Height (mm) below which a carve may be a cast shadow on the floor rather than a body part.
+SHADOW_HEIGHT_MM = 150.0
 #: Closing radius of the projected person (share of its height in the image) that covers a torso
 #: the plate absorbed between carved limbs.
 COVER_CLOSING = 0.12
@@ -75,6 +89,44 @@ def person_component(occupancy: np.ndarray, *, merge: int = 1) -> np.ndarray:
     sizes = np.bincount(labels[occ], minlength=n + 1)
     sizes[0] = 0
     return occ & (labels == int(np.argmax(sizes)))
+
+
+def watched_voxels(carver: Carver, holes: int) -> np.ndarray:
+    """(nx, ny, nz) bool: the voxels at least half the rig's cameras see (and never fewer than
+    the ``holes + 2`` the carving needs).
+
+    At the edge of a large rig's common view three cameras see a voxel, and two agreeing blobs
+    there (a ghost, noise) carve a phantom that wins as "the person" while the real one is
+    still in the temporal median (a rendered walker, seven cameras). With up to four cameras
+    this is the carving's own rule.
+    """
+    need = max(int(holes) + 2, -(-len(carver.cameras) // 2))
+    return carver.coverage() >= need
+
+
+def carve_person(carver: Carver, masks, holes: int, *,
+                 watched: np.ndarray | None = None) -> np.ndarray:
+    """The person of one frame's silhouettes: the carve tolerating ``holes``, kept where
+    :func:`watched_voxels` (given, or computed), its :func:`person_component`."""
+    if watched is None:
+        watched = watched_voxels(carver, holes)
+    return person_component(carver.carve_with_holes(masks, holes) & watched)
+
+
+def moving_parts(carver: Carver, swept, holes: int, *,
+                 watched: np.ndarray | None = None) -> np.ndarray:
+    """The person's moving parts: :func:`carve_person` of ``swept`` (per camera, the union of
+    the sampled frames' silhouettes) at least :data:`SHADOW_HEIGHT_MM` above the grid's floor.
+
+    A moving cast shadow is on the floor in every view, so it carves too (a slab a voxel
+    high); while the body is in the plate it would be the largest thing found.
+    """
+    grid = carver.grid
+    if watched is None:
+        watched = watched_voxels(carver, holes)
+    z = grid.low[2] + (np.arange(grid.shape[2]) + 0.5) * grid.voxel_size
+    return carve_person(carver, swept, holes,
+                        watched=watched & (z >= grid.low[2] + SHADOW_HEIGHT_MM)[None, None, :])
 
 
 def _ghost_blobs(mask: np.ndarray, image: np.ndarray, plate: np.ndarray, ratio: float,
@@ -175,6 +227,7 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
     n_frames = counts.pop()
     small = {n: np.stack(f) for n, f in small.items()}
     carver = Carver(small_cams, grid)
+    watched = watched_voxels(carver, holes)
 
     plates = {n: plate_from_frames(small[n], config, unstable=False) for n in names}
     covered = {n: np.zeros(small[n].shape[:3], bool) for n in names}
@@ -193,7 +246,7 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                     raw &= ~_ghost_blobs(raw, img, bg.plate, config.plate_ghost_ratio,
                                          max(config.min_area // 4, 8))
                 masks.append(raw)
-            person = person_component(carver.carve_with_holes(masks, holes))
+            person = carve_person(carver, masks, holes, watched=watched)
             person_frames.append((person, masks))
             volumes[f] = person.sum()
         # the typical person: the median over the frames where one was found (a few frames
@@ -236,11 +289,41 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
         if change < 0.002:
             break
 
-    if log is not None and typical * grid.voxel_size ** 3 < MIN_PERSON_MM3:
-        log(f"warning: the person carves into {typical * grid.voxel_size ** 3 / 1e6:.0f} litres "
-            "only: the learnt plate may still hold the person (who moved too little in the "
-            "sampled frames); empty background videos would be better")
+    if typical * grid.voxel_size ** 3 < MIN_PERSON_MM3:
+        # The median still holds the body: what carves are the parts that moved. Where the
+        # body is cannot be seen, but it is near them: the person-sized column around what
+        # the silhouettes of all frames together carve (one frame's parts may be a foot alone)
+        # is covered in every frame (a pixel uncovered once would be taken as seen), so its
+        # pixels stay unknown and each frame's silhouette decides them (``plate_unknown``).
+        swept = [np.any([person_frames[f][1][c] for f in range(n_frames)], axis=0)
+                 for c in range(len(small_cams))]
+        column = person_column(moving_parts(carver, swept, holes, watched=watched), grid)
+        for c, cam in enumerate(small_cams):
+            covered[cam.name] |= _cover(column, carver, c)[None]
+        if log is not None:
+            log(f"warning: the person carves into {typical * grid.voxel_size ** 3 / 1e6:.0f} "
+                "litres only: the learnt plate may still hold the person (who moved too little "
+                "in the sampled frames); its background is left unknown within "
+                f"{PERSON_COLUMN_RADIUS_MM / 1000:g} m of the carved parts and "
+                f"{PERSON_COLUMN_HEIGHT_MM / 1000:g} m of the floor; empty background videos would "
+                "be better")
     return plates_from_covers(frames, cameras, covered, config)
+
+
+def person_column(person: np.ndarray, grid) -> np.ndarray:
+    """The voxels of a person-sized column around the carved voxels (same shape as ``person``).
+
+    Voxels within :data:`PERSON_COLUMN_RADIUS_MM` horizontally of a carved voxel (the floor
+    plan of the carved voxels grown by that radius: an exact Euclidean distance) and at most
+    :data:`PERSON_COLUMN_HEIGHT_MM` above the grid's floor; empty when nothing is carved.
+    """
+    person = np.asarray(person, bool)
+    if not person.any():
+        return np.zeros_like(person)
+    plan = person.any(axis=2)
+    near = ndimage.distance_transform_edt(~plan) * grid.voxel_size <= PERSON_COLUMN_RADIUS_MM
+    z = grid.low[2] + (np.arange(person.shape[2]) + 0.5) * grid.voxel_size
+    return near[:, :, None] & (z <= grid.low[2] + PERSON_COLUMN_HEIGHT_MM)[None, None, :]
 
 
 def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,

@@ -271,7 +271,7 @@ class Carver:
 
 
     def carve_with_holes(self, masks, holes: int = 1, *, ignore=(),
-                         reach: float = 0.0) -> np.ndarray:
+                         reach: float = 0.0, abstain=None) -> np.ndarray:
         """Occupancy tolerating ``holes`` silhouettes that miss an occupied voxel.
 
         A voxel is occupied when at least ``holes + 2`` cameras see it and at most ``holes`` of
@@ -292,6 +292,9 @@ class Carver:
             A silhouette may miss a voxel only when the voxel projects within ``reach`` × its
             image diagonal of that silhouette (0: at any distance): a hole inside the person is
             tolerated, a voxel far outside one view is not.
+        abstain : sequence of (H_c, W_c) bool ndarray or None, optional
+            Per camera, pixels whose verdict does not count: a voxel projecting there is as if
+            that camera did not see it (None: every pixel counts).
 
         Returns
         -------
@@ -301,6 +304,12 @@ class Carver:
         seen = seen.astype(np.int16)
         for c in ignore:
             seen -= (self.tables[c] >= 0).reshape(self.grid.shape)
+        if abstain is not None and any(a is not None for a in abstain):
+            off = [np.zeros(np.shape(m), bool) if a is None else np.asarray(a, bool)
+                   for m, a in zip(masks, abstain, strict=True)]
+            seen -= self.counts(off)[1]
+            inside = inside.astype(np.int16) - self.counts(
+                [np.asarray(m, bool) & a for m, a in zip(masks, off, strict=True)])[1]
         occ = (seen >= int(holes) + 2) & (inside.astype(np.int16) >= seen - int(holes))
         if reach > 0 and holes > 0 and occ.any():
             near = []

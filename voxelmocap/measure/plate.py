@@ -253,15 +253,15 @@ def _grabcut(image: np.ndarray, mask: np.ndarray, known: np.ndarray, scale: floa
     unknown = mask & ~known
     sure_fg = mask & known
     sure_bg = ~mask
-    if not (sure_fg.any() and sure_bg.any()):
-        return mask                       # no colour model for one of the two sides
+    if not (unknown.any() and sure_bg.any()):
+        return mask                       # nothing to decide, or no background colour model
     h, w = mask.shape
     size = (max(8, int(round(w * scale))), max(8, int(round(h * scale))))
     labels = np.full((h, w), cv2.GC_BGD, np.uint8)
     labels[sure_fg] = cv2.GC_FGD
     labels[unknown] = cv2.GC_PR_FGD
     small = cv2.resize(labels, size, interpolation=cv2.INTER_NEAREST)
-    if not ((small == cv2.GC_FGD).any() and (small == cv2.GC_BGD).any()):
+    if not ((small != cv2.GC_BGD).any() and (small == cv2.GC_BGD).any()):
         return mask
     crop = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
     bgd, fgd = np.zeros((1, 65)), np.zeros((1, 65))

@@ -190,7 +190,7 @@ class MeasurementStage:
             occ = self.carver.carve_with_holes(
                 [m if u else np.zeros(m.shape, bool) for m, u in zip(masks, use, strict=True)],
                 self.holes, ignore=[i for i, u in enumerate(use) if not u],
-                reach=self.hole_reach)
+                reach=self.hole_reach, abstain=self.abstain)
         else:
             occ = self._carve_rule(masks, use, excluded)
         if self.person_only:
@@ -258,6 +258,20 @@ class MeasurementStage:
                 raise InputError("masks", f"silhouette of {cam.name} is {m.shape[1]}x"
                                           f"{m.shape[0]}, its calibration says {w}x{h}")
         return np.stack(masks) if len({m.shape for m in masks}) == 1 else masks
+
+    @cached_property
+    def abstain(self) -> list | None:
+        """Per camera, the pixels whose silhouette verdict the hole-tolerant carving does not
+        count: a grey camera's never-seen pixels (None for the others; None overall when no
+        camera has such pixels). There GrabCut decides from one channel's intensity, which a
+        grey shirt shares with a grey wall: a camera that never saw the background there and
+        has no colour to tell them apart abstains rather than cut the body away."""
+        known = self.known
+        if known is None:
+            return None
+        out = [None if k is None or np.shape(self.backgrounds[n].plate)[-1] != 1 else ~k
+               for n, k in zip(self.names, known, strict=True)]
+        return None if all(a is None for a in out) else out
 
     @cached_property
     def known(self) -> list | None:
