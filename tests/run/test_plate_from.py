@@ -95,7 +95,7 @@ def test_pixels_the_body_left_free_too_rarely_are_unknown(no_plate):
     for cam in seq.camera_names:
         (without, _), (with_share, enough) = known[0.0, cam], known[0.5, cam]
         assert (with_share != (without & enough)).mean() < 0.01, cam   # the noise floor moves
-        assert (without & ~enough).mean() > 0.01, cam                  # the share mattered
+        assert (without & ~enough).mean() > 0.005, cam                 # the share mattered
 
 
 def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
@@ -406,6 +406,37 @@ def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monk
     assert final.attrs["init_method"] == second.attrs["init_method"]
     assert "the voxels of frame" in final.attrs["init_method"]
     np.testing.assert_array_equal(final.state, second.state)
+
+
+def test_a_pass_that_lost_the_person_ends_the_passes(long_walk, tmp_path, capsys, monkeypatch):
+    """Pass 2's plate, learnt around pass 1's body, finds the person in fewer frames than pass
+    1's did (under LOST_SHARE of them, counts faked as in ``_saw_too_few``): the last pass
+    repeats pass 1 (its plate by carving, no plate from a body), and says why."""
+    from voxelmocap.run import frame_loop
+    from voxelmocap.run.plan import LOST_SHARE, MIN_BODY_FRAMES
+
+    data, run = long_walk
+    out = tmp_path / "run"
+    shutil.copytree(run, out)
+    # pass 1 kept (read again); pass 2 records where pass 1 was, so it is tracked again
+    shutil.rmtree(out / "S1" / "pass2")
+    (out / "S1" / "Walking_1.h5").unlink()
+    counts = {"pass1": 2 * MIN_BODY_FRAMES, "pass2": MIN_BODY_FRAMES}
+    assert counts["pass2"] < LOST_SHARE * counts["pass1"]
+    real = frame_loop.PassRun.run
+
+    def run_(self, *args, **kwargs):
+        outcome = real(self, *args, **kwargs)
+        outcome.frames_with_person = counts.get(self.folder, outcome.frames_with_person)
+        return outcome
+
+    monkeypatch.setattr(frame_loop.PassRun, "run", run_)
+    assert main(_args(data, "--out", str(out), "--resume")) == 0
+    assert "pass 2 saw the person in 10 frame(s), pass 1 in 20" in capsys.readouterr().out
+    first = read_result(out / "S1" / "pass1" / "Walking_1.h5")
+    final = read_result(out / "S1" / "Walking_1.h5")
+    assert final.attrs["plate_from"] == "" and final.attrs["config"] == first.attrs["config"]
+    np.testing.assert_array_equal(final.state, first.state)
 
 
 def _saw_too_few(monkeypatch, which):

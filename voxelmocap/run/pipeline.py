@@ -13,7 +13,10 @@ pass, each handing the next the body it tracked, in memory. Each pass writes
 * the landmark exports of ``config.export`` (TRC and CSV by default, C3D on request;
   :mod:`voxelmocap.io.exports`, ``docs/outputs.md``).
 
-The last pass's results are the run's (``RUN/<Subject>/<Action>_<Trial>.*``).
+The last pass's results are the run's (``RUN/<Subject>/<Action>_<Trial>.*``). A pass that gives
+no body to learn the next plate from (the person in fewer than ``MIN_BODY_FRAMES`` frames), or
+whose plate found the person in fewer than ``LOST_SHARE`` of the frames the pass before did,
+ends the passes: the last pass repeats that pass, or the one before.
 """
 
 from __future__ import annotations
@@ -65,7 +68,7 @@ def track(request: TrackRequest) -> TrackOutcome:
     from ..io.sequence import open_sequence
     from .bodies import tracked_body
     from .frame_loop import PassRun
-    from .plan import MIN_BODY_FRAMES, plan_passes
+    from .plan import LOST_SHARE, MIN_BODY_FRAMES, plan_passes
 
     def say(message: str, level: int = logging.INFO) -> None:
         emit(logger, request.log, message, level)
@@ -101,6 +104,7 @@ def track(request: TrackRequest) -> TrackOutcome:
     # Every pass runs with the run's resume/overwrite: resuming, a complete pass only reads its
     # file; the passes are deterministic for a seed, so a pass tracked again is the same pass.
     k = 0
+    before = None                 # the pass before: (plan, the body it learnt from, frames seen)
     while True:
         p = passes[k]
         if len(passes) > 1:
@@ -108,13 +112,24 @@ def track(request: TrackRequest) -> TrackOutcome:
         outcome = PassRun(request, seq, gt, selected, p, body, say).run(person_masks)
         if p.last:
             return outcome
-        if outcome.frames_with_person < MIN_BODY_FRAMES or outcome.tracked is None:
+        seen = outcome.frames_with_person
+        if seen < MIN_BODY_FRAMES or outcome.tracked is None:
             # No body to learn the next plate from: the last pass repeats this one.
-            say(f"warning: pass {p.number} saw the person in {outcome.frames_with_person} "
-                f"frame(s), fewer than the {MIN_BODY_FRAMES} a plate from its body needs: the "
-                "last pass tracks as it did")
+            say(f"warning: pass {p.number} saw the person in {seen} frame(s), fewer than the "
+                f"{MIN_BODY_FRAMES} a plate from its body needs: the last pass tracks as it did")
             passes = passes[:k + 1] + (p.as_last(),)
+        elif before is not None and seen < LOST_SHARE * before[2]:
+            # Its plate, learnt around the previous body, lost the person where the previous
+            # plate had them: that body was a poor cover, and a plate around this one's would
+            # be worse. The last pass repeats the pass before.
+            plan_before, body_before, seen_before = before
+            say(f"warning: pass {p.number} saw the person in {seen} frame(s), pass "
+                f"{plan_before.number} in {seen_before}: the last pass tracks as pass "
+                f"{plan_before.number} did")
+            passes = passes[:k + 1] + (plan_before.as_last(),)
+            body = body_before
         else:
+            before = (p, body, seen)
             body = outcome.tracked
         k += 1
 

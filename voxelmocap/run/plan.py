@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 from ..config import TrackConfig, with_overrides
 
-__all__ = ["CONTINUED_SEARCH", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES", "PassPlan",
+__all__ = ["CONTINUED_SEARCH", "LOST_SHARE", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES", "PassPlan",
            "RunPlan", "final_config", "masks_defaults", "pass_folder",
            "plan_passes"]
 
@@ -39,6 +39,10 @@ __all__ = ["CONTINUED_SEARCH", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES"
 #: its body (the plate is the median of those frames around the body): on the rendered 8-frame
 #: walk the final pass, learning from 3–8 frames, lost the person in 3 of 4 and 4 of 8 frames.
 MIN_BODY_FRAMES = 10
+#: A pass whose plate (learnt around the previous pass's body) finds the person in fewer than
+#: this share of the frames the previous pass found them in ends the passes: the last pass
+#: repeats the previous one (a rendered gestures clip without plate: 100 frames, then 36, then 0).
+LOST_SHARE = 0.9
 
 #: With ``--masks``: the cues and the limb sweep's hull gate used unless chosen otherwise
 #: (docs/benchmarks.md, "Real recording"). With a plate from a tracked body the cues only.
