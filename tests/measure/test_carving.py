@@ -308,3 +308,8 @@ def test_abstaining_pixels_do_not_count_in_the_hole_tolerant_carving(rig, grid, 
     assert (box & ~counted).sum() == 0                      # … unless it abstains
     np.testing.assert_array_equal(carver.carve_with_holes(holed, 1, abstain=[None] * len(rig)),
                                   plain)
+    # a camera left out does not abstain on top of it
+    c = names.index("BW1")
+    np.testing.assert_array_equal(carver.carve_with_holes(holed, 1, ignore=[c], abstain=abstain),
+                                  carver.carve_with_holes(holed, 1, ignore=[c], abstain=[
+                                      None if k == c else a for k, a in enumerate(abstain)]))

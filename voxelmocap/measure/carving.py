@@ -305,8 +305,10 @@ class Carver:
         for c in ignore:
             seen -= (self.tables[c] >= 0).reshape(self.grid.shape)
         if abstain is not None and any(a is not None for a in abstain):
-            off = [np.zeros(np.shape(m), bool) if a is None else np.asarray(a, bool)
-                   for m, a in zip(masks, abstain, strict=True)]
+            # a camera left out already neither sees nor votes: it cannot abstain again
+            off = [np.zeros(np.shape(m), bool) if a is None or c in ignore
+                   else np.asarray(a, bool)
+                   for c, (m, a) in enumerate(zip(masks, abstain, strict=True))]
             seen -= self.counts(off)[1]
             inside = inside.astype(np.int16) - self.counts(
                 [np.asarray(m, bool) & a for m, a in zip(masks, off, strict=True)])[1]
