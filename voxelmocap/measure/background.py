@@ -124,9 +124,8 @@ def moving_parts(carver: Carver, swept, holes: int, *,
     grid = carver.grid
     if watched is None:
         watched = watched_voxels(carver, holes)
-    z = grid.low[2] + (np.arange(grid.shape[2]) + 0.5) * grid.voxel_size
-    return carve_person(carver, swept, holes,
-                        watched=watched & (z >= grid.low[2] + SHADOW_HEIGHT_MM)[None, None, :])
+    above = grid.axis_centres(2) >= grid.low[2] + SHADOW_HEIGHT_MM
+    return carve_person(carver, swept, holes, watched=watched & above[None, None, :])
 
 
 def _ghost_blobs(mask: np.ndarray, image: np.ndarray, plate: np.ndarray, ratio: float,
@@ -322,8 +321,8 @@ def person_column(person: np.ndarray, grid) -> np.ndarray:
         return np.zeros_like(person)
     plan = person.any(axis=2)
     near = ndimage.distance_transform_edt(~plan) * grid.voxel_size <= PERSON_COLUMN_RADIUS_MM
-    z = grid.low[2] + (np.arange(person.shape[2]) + 0.5) * grid.voxel_size
-    return near[:, :, None] & (z <= grid.low[2] + PERSON_COLUMN_HEIGHT_MM)[None, None, :]
+    low = grid.axis_centres(2) <= grid.low[2] + PERSON_COLUMN_HEIGHT_MM
+    return near[:, :, None] & low[None, None, :]
 
 
 def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
