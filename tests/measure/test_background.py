@@ -107,6 +107,7 @@ def test_learnt_plate_recovers_the_true_background_of_a_person_standing_half_the
     plates = learn_plates(frames, rig, coarse, cfg)
     for cam in rig:
         n = cam.name
+        assert not plates[n].unknown_margin                      # where the person stood
         median = plate_from_frames(frames[n], cfg)
         known = plates[n].known
         bad_median = (np.abs(median.plate - truth[n]).max(axis=2) > 15).sum()
@@ -236,6 +237,7 @@ def test_a_person_who_barely_moves_is_left_out_of_the_plate():
         assert (wrong & known).sum() < 0.001 * known.size
         assert (body & ~known).sum() > 0.98 * body.sum()
         assert (~known).mean() < cfg.plate_max_unknown           # still a plate
+        assert plates[n].unknown_margin                          # a margin, GrabCut decides it
 
 
 def test_person_column_is_the_carved_floor_plan_grown_by_the_radius():
@@ -576,11 +578,17 @@ def test_grabcut_decides_a_person_whose_pixels_were_all_never_seen():
     image = np.clip(image + rng.normal(0, 2, image.shape), 0, 255).astype(np.uint8)
     known = np.ones((h, w), bool)
     known[20:225, 40:160] = False                                  # the person and more
-    bg = PlateBackground(plate.clip(0, 255), 2.0, known)
+    bg = PlateBackground(plate.clip(0, 255), 2.0, known, unknown_margin=True)
     assert not (person & known).any()
     new = segment_with(bg, image, "grabcut")
     assert (new & person).sum() / (new | person).sum() > 0.85
     np.testing.assert_array_equal(new[known], False)
+    # where the never-seen region is where the person stood throughout (not a margin), a blob
+    # of never-seen pixels alone is mostly the person: it is kept whole
+    stood = PlateBackground(plate.clip(0, 255), 2.0, known)
+    np.testing.assert_array_equal(segment_with(stood, image, "grabcut"),
+                                  segment_with(stood, image, "foreground"))
+    assert segment_with(stood, image, "grabcut")[~known].mean() > 0.95
 
 
 def segment_with(bg, image, mode):

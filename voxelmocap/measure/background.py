@@ -288,7 +288,8 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
         if change < 0.002:
             break
 
-    if typical * grid.voxel_size ** 3 < MIN_PERSON_MM3:
+    barely_moves = typical * grid.voxel_size ** 3 < MIN_PERSON_MM3
+    if barely_moves:
         # The median still holds the body: what carves are the parts that moved. Where the
         # body is cannot be seen, but it is near them: the person-sized column around what
         # the silhouettes of all frames together carve (one frame's parts may be a foot alone)
@@ -306,7 +307,7 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                 f"{PERSON_COLUMN_RADIUS_MM / 1000:g} m of the carved parts and "
                 f"{PERSON_COLUMN_HEIGHT_MM / 1000:g} m of the floor; empty background videos would "
                 "be better")
-    return plates_from_covers(frames, cameras, covered, config)
+    return plates_from_covers(frames, cameras, covered, config, unknown_margin=barely_moves)
 
 
 def person_column(person: np.ndarray, grid) -> np.ndarray:
@@ -326,8 +327,8 @@ def person_column(person: np.ndarray, grid) -> np.ndarray:
 
 
 def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
-                       covers: Mapping[str, np.ndarray], config: SilhouetteConfig | None = None
-                       ) -> dict[str, PlateBackground]:
+                       covers: Mapping[str, np.ndarray], config: SilhouetteConfig | None = None,
+                       *, unknown_margin: bool = False) -> dict[str, PlateBackground]:
     """One plate per camera from frames of the sequence and where the person is in each.
 
     Each pixel's background is estimated from the frames that do not cover it
@@ -344,6 +345,9 @@ def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
     covers : mapping of str to (F, h, w) bool ndarray
         The person's pixels per frame, at any resolution (resized to the frames').
     config : SilhouetteConfig, optional
+    unknown_margin : bool
+        The covers are a margin wider than the person (a column around where they may be), not
+        the person's own image: see :class:`~voxelmocap.measure.plate.PlateBackground`.
 
     Returns
     -------
@@ -368,7 +372,7 @@ def plates_from_covers(frames: Mapping[str, np.ndarray], cameras,
         h, w = frames_c.shape[1:3]
         keep = ~np.stack([cv2.resize(c.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST)
                           .astype(bool) for c in cover])
-        plate = plate_from_frames(frames_c, config, keep=keep)
+        plate = plate_from_frames(frames_c, config, keep=keep, unknown_margin=unknown_margin)
         unknown = 1.0 - float(plate.known.mean())
         if unknown > config.plate_max_unknown:
             raise InputError(f"background of {cam.name}",

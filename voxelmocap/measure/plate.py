@@ -136,6 +136,10 @@ class PlateBackground:
     shadows : bool
         Cast shadows (brightness ratio in ``shadow_brightness``, chromaticity distortion below
         ``shadow_chromaticity``) are background.
+    unknown_margin : bool
+        The never-seen region is a margin around where the person may be (wider than them, as
+        :func:`~voxelmocap.measure.background.person_column` leaves it), not where the person
+        stood throughout: :meth:`refine` then decides a blob of never-seen pixels alone too.
 
     Attributes
     ----------
@@ -148,7 +152,9 @@ class PlateBackground:
     def __init__(self, plate, sigma, known=None, *, false_alarm: float = _DEFAULT.false_alarm,
                  shadows: bool = _DEFAULT.shadows,
                  shadow_brightness=_DEFAULT.shadow_brightness,
-                 shadow_chromaticity: float = _DEFAULT.shadow_chromaticity):
+                 shadow_chromaticity: float = _DEFAULT.shadow_chromaticity,
+                 unknown_margin: bool = False):
+        self.unknown_margin = bool(unknown_margin)
         self.plate = _channels(np.asarray(plate, np.float32))
         h, w, c = self.plate.shape
         sigma = np.broadcast_to(np.asarray(sigma, np.float32), (h, w))
@@ -210,8 +216,11 @@ class PlateBackground:
         at ``grabcut_scale`` of the resolution: known foreground pixels are fixed foreground,
         known background fixed background, the never-seen ones *probably foreground*, so GrabCut
         labels only them, from colour models of this frame's person and background in the crop
-        and its edge-aware smoothness. A crop without known foreground or known background is
-        left as it is.
+        and its edge-aware smoothness. A crop without known background is left as it is; so is
+        one without known foreground, unless the never-seen region is a margin wider than the
+        person (``unknown_margin``: GrabCut then starts from the never-seen pixels alone). Where
+        the never-seen region is where the person stood throughout, such a blob is mostly the
+        person (a standing leg) and stays whole.
 
         Parameters
         ----------
@@ -243,25 +252,29 @@ class PlateBackground:
             box = (slice(max(y - pad, 0), min(y + bh + pad, h)),
                    slice(max(x - pad, 0), min(x + bw + pad, w)))
             mask[box] = _grabcut(img[box], mask[box], self.known[box],
-                                 config.grabcut_scale, config.grabcut_iterations)
+                                 config.grabcut_scale, config.grabcut_iterations,
+                                 unknown_alone=self.unknown_margin)
         return mask
 
 
 def _grabcut(image: np.ndarray, mask: np.ndarray, known: np.ndarray, scale: float,
-             iterations: int) -> np.ndarray:
-    """GrabCut of one crop: known pixels fixed, never-seen foreground pixels to decide."""
+             iterations: int, *, unknown_alone: bool = False) -> np.ndarray:
+    """GrabCut of one crop: known pixels fixed, never-seen foreground pixels to decide (with
+    ``unknown_alone``, also when the crop holds no known foreground pixel)."""
     unknown = mask & ~known
     sure_fg = mask & known
     sure_bg = ~mask
-    if not (unknown.any() and sure_bg.any()):
-        return mask                       # nothing to decide, or no background colour model
+    person_model = unknown if unknown_alone else sure_fg
+    if not (person_model.any() and sure_bg.any()):
+        return mask                       # no colour model for one of the two sides
     h, w = mask.shape
     size = (max(8, int(round(w * scale))), max(8, int(round(h * scale))))
     labels = np.full((h, w), cv2.GC_BGD, np.uint8)
     labels[sure_fg] = cv2.GC_FGD
     labels[unknown] = cv2.GC_PR_FGD
     small = cv2.resize(labels, size, interpolation=cv2.INTER_NEAREST)
-    if not ((small != cv2.GC_BGD).any() and (small == cv2.GC_BGD).any()):
+    seeds = (small != cv2.GC_BGD) if unknown_alone else (small == cv2.GC_FGD)
+    if not (seeds.any() and (small == cv2.GC_BGD).any()):
         return mask
     crop = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
     bgd, fgd = np.zeros((1, 65)), np.zeros((1, 65))
@@ -280,7 +293,8 @@ def _shadow(x, bg, brightness, chromaticity) -> np.ndarray:
 
 
 def plate_from_frames(frames: np.ndarray, config: SilhouetteConfig | None = None, *,
-                      keep: np.ndarray | None = None, unstable: bool = True) -> PlateBackground:
+                      keep: np.ndarray | None = None, unstable: bool = True,
+                      unknown_margin: bool = False) -> PlateBackground:
     """A :class:`PlateBackground` from frames: the median plate and its robust noise.
 
     Parameters
@@ -296,6 +310,8 @@ def plate_from_frames(frames: np.ndarray, config: SilhouetteConfig | None = None
         are unknown (foreground). The passes of :func:`learn_plates` leave it off (a region the
         person crossed would otherwise turn foreground and grow the carved person pass after
         pass); the final plate sets it.
+    unknown_margin : bool
+        See :class:`PlateBackground`.
     """
     config = config or _DEFAULT
     frames = np.asarray(frames)
@@ -322,4 +338,5 @@ def plate_from_frames(frames: np.ndarray, config: SilhouetteConfig | None = None
         sigma = np.full(plate.shape[:2], 2.0, np.float32)
     return PlateBackground(plate, sigma, known, false_alarm=config.false_alarm,
                            shadows=config.shadows, shadow_brightness=config.shadow_brightness,
-                           shadow_chromaticity=config.shadow_chromaticity)
+                           shadow_chromaticity=config.shadow_chromaticity,
+                           unknown_margin=unknown_margin)
