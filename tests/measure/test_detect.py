@@ -135,3 +135,22 @@ def test_height_ignores_a_raised_arm(body_grid):
     waving = find_extremities(_occupancy(model, x, grid), grid)
     assert waving.extent_mm > standing.extent_mm + 200.0  # the hand is far above the head
     assert waving.height_mm == standing.height_mm
+
+
+def test_height_ignores_a_hand_raised_right_above_the_head(body_grid):
+    """A hand held straight over the head (the wrist 55 mm beside the head top's vertical,
+    250 mm above it) is on the trunk's axis: its thin sections above the head's do not count."""
+    model, grid = body_grid
+    names = list(model.state_names)
+    x = model.default_state()
+    standing = find_extremities(_occupancy(model, x, grid), grid)
+    x[names.index("r_shoulder_flex")], x[names.index("r_shoulder_abd")] = 3.1, -0.25
+    lm = model.landmarks(x[None])[0]
+    assert np.hypot(*(lm[7, :2] - lm[14, :2])) < 60 and lm[7, 2] > lm[14, 2] + 240
+    occ = _occupancy(model, x, grid)
+    over = find_extremities(occ, grid)
+    centres = grid.centres()[occ.reshape(-1)]
+    on_axis = np.hypot(*(centres[:, :2] - over.centre[:2]).T) <= 150.0
+    # the highest voxel on the axis is the hand's, far above the head
+    assert centres[on_axis, 2].max() > standing.height_mm + standing.low[2] + 200.0
+    assert standing.height_mm <= over.height_mm <= standing.height_mm + 60.0

@@ -35,9 +35,16 @@ from scipy.sparse import csgraph
 from ..errors import InputError
 from ..grid import VoxelGrid
 
-__all__ = ["Extremities", "find_extremities"]
+__all__ = ["CROWN_MM", "HEAD_SECTION_MM2", "Extremities", "find_extremities"]
 
 #: The 13 neighbour offsets of a 26-neighbourhood that point "forward" (each edge once).
+#: A horizontal section of a head (mm²), π·(60 mm)²: the top of the trunk's axis is the highest
+#: section at least this large; a raised hand or forearm above the head is thinner.
+HEAD_SECTION_MM2 = float(np.pi * 60.0 ** 2)
+#: How far the crown rises above that section (mm; the carving's rounded top included): thinner
+#: sections right above it count up to this height, a hand held higher does not.
+CROWN_MM = 60.0
+
 _OFFSETS = np.array([(di, dj, dk) for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
                      if (di, dj, dk) > (0, 0, 0)], dtype=np.int64)
 
@@ -84,6 +91,28 @@ class Extremities:
         """
         top = self.axis_top if np.isfinite(self.axis_top) else float(self.high[2])
         return float(top - self.low[2])
+
+
+def _axis_top(k: np.ndarray, grid: VoxelGrid) -> float:
+    """Top (mm) of the head on the trunk's axis, from the axis's voxels' z indices ``k``.
+
+    A hand raised right above the head is on the axis too: the top is that of the highest
+    section of at least :data:`HEAD_SECTION_MM2`, with the occupied slices right above it up to
+    :data:`CROWN_MM` (a gap, or anything higher, is not the head); without such a section, the
+    axis's highest voxel.
+    """
+    vs = float(grid.voxel_size)
+    base = int(k.min())
+    per_slice = np.bincount(k - base)
+    wide = np.flatnonzero(per_slice * vs * vs >= HEAD_SECTION_MM2)
+    if wide.size == 0:
+        top = int(k.max())
+    else:
+        top = int(wide.max())
+        above = per_slice[top + 1:] > 0
+        run = len(above) if above.all() else int(np.argmin(above))
+        top += min(run, int(CROWN_MM // vs))
+    return float(grid.centre_of(np.array([0, 0, base + top]))[2] + vs / 2)
 
 
 def _person(occ: np.ndarray, bridge_vox: float, min_voxels: int):
@@ -256,7 +285,7 @@ def find_extremities(occupancy, grid: VoxelGrid, *, max_extremities: int = 7,
     centre = grid.centre_of(idx[centre_id])
     heights = grid.centre_of(idx)
     on_axis = np.hypot(heights[:, 0] - centre[0], heights[:, 1] - centre[1]) <= axis_radius_mm
-    axis_top = float(heights[on_axis, 2].max() + vs / 2)  # the centre itself is on the axis
+    axis_top = _axis_top(idx[on_axis, 2], grid)  # the centre itself is on the axis
     return Extremities(
         centre=centre,
         points=grid.centre_of(idx[found]).reshape(-1, 3),
