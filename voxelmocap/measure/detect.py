@@ -37,7 +37,6 @@ from ..grid import VoxelGrid
 
 __all__ = ["CROWN_MM", "HEAD_SECTION_MM2", "Extremities", "find_extremities"]
 
-#: The 13 neighbour offsets of a 26-neighbourhood that point "forward" (each edge once).
 #: A horizontal section of a head (mm²), π·(60 mm)²: the top of the trunk's axis is the highest
 #: section at least this large; a raised hand or forearm above the head is thinner.
 HEAD_SECTION_MM2 = float(np.pi * 60.0 ** 2)
@@ -45,6 +44,7 @@ HEAD_SECTION_MM2 = float(np.pi * 60.0 ** 2)
 #: sections right above it count up to this height, a hand held higher does not.
 CROWN_MM = 60.0
 
+#: The 13 neighbour offsets of a 26-neighbourhood that point "forward" (each edge once).
 _OFFSETS = np.array([(di, dj, dk) for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
                      if (di, dj, dk) > (0, 0, 0)], dtype=np.int64)
 
@@ -74,7 +74,8 @@ class Extremities:
     low: np.ndarray
     high: np.ndarray
 
-    #: Top (mm) of the voxels within ``axis_radius_mm`` of the vertical through the centre.
+    #: Top (mm) of the head on the vertical through the centre (the voxels within
+    #: ``axis_radius_mm`` of it; a hand held above the head left out: :func:`_axis_top`).
     axis_top: float = float("nan")
 
     @property
@@ -86,8 +87,9 @@ class Extremities:
     def height_mm(self) -> float:
         """A standing person's height (mm): from the lowest voxel to the top of the trunk's axis.
 
-        The axis top is the head when it is above the trunk; a hand raised above the head is off
-        that axis and does not count (the vertical extent would: +260 mm on a waving clip).
+        The axis top is the head when it is above the trunk; a hand raised beside the head is
+        off that axis and does not count (the vertical extent would: +260 mm on a waving clip),
+        nor does one held right above it (thinner than a head: +240 mm on the same clip).
         """
         top = self.axis_top if np.isfinite(self.axis_top) else float(self.high[2])
         return float(top - self.low[2])
