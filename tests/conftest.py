@@ -51,14 +51,14 @@ def walk_dataset(tmp_path_factory) -> Path:
                     background_frames=20, seed=3)
 
 
-def _link_without_answer(source, root):
+def _link_without_answer(source, root, leave_out=("Mocap_Data",)):
     """Link the data set ``source`` into ``root`` without ``Mocap_Data`` (no ground truth, no
-    body file); returns ``root``."""
+    body file; ``leave_out``: these folders, e.g. also ``Background``); returns ``root``."""
     import os
 
     for path in source.rglob("*"):
         rel = path.relative_to(source)
-        if "Mocap_Data" in rel.parts:
+        if set(leave_out) & set(rel.parts):
             continue
         if path.is_dir():
             (root / rel).mkdir(parents=True, exist_ok=True)

@@ -32,21 +32,14 @@ def _track(data, out, threads: int) -> None:
     assert proc.returncode == 0, proc.stderr
 
 
-def test_one_and_two_threads_in_two_processes_track_bit_identically(walk_dataset, tmp_path):
+def test_one_and_two_threads_in_two_processes_track_bit_identically(walk_dataset,
+                                                                   link_without_answer, tmp_path):
     """Without background videos, ground truth or body file — the path with the most machinery
     (the plate learnt from the sequence, GrabCut on its never-seen pixels, the start searched
     from the voxels, the body fitted) — a run with one thread and a run with two, each its own
     process, write the same track bit for bit."""
-    data = tmp_path / "data"
-    for path in walk_dataset.rglob("*"):
-        rel = path.relative_to(walk_dataset)
-        if {"Mocap_Data", "Background"} & set(rel.parts):
-            continue
-        if path.is_dir():
-            (data / rel).mkdir(parents=True, exist_ok=True)
-        else:
-            (data / rel).parent.mkdir(parents=True, exist_ok=True)
-            os.symlink(path, data / rel)
+    data = link_without_answer(walk_dataset, tmp_path / "data",
+                               leave_out=("Mocap_Data", "Background"))
     _track(data, tmp_path / "one", 1)
     _track(data, tmp_path / "two", 2)
     log = (tmp_path / "one" / "voxelmocap.log").read_text()
