@@ -154,6 +154,8 @@ class Carver:
         self._build_bricks()
         #: Use the brick rejection (True) or the plain per-voxel kernels (for benchmarks).
         self.use_bricks = True
+        # (abstain list, cameras left out, per-voxel count of abstaining views) of the last call
+        self._abstained = None
 
     @property
     def names(self) -> list[str]:
@@ -309,7 +311,7 @@ class Carver:
             off = [np.zeros(np.shape(m), bool) if a is None or c in ignore
                    else np.asarray(a, bool)
                    for c, (m, a) in enumerate(zip(masks, abstain, strict=True))]
-            seen -= self.counts(off)[1]
+            seen -= self._abstaining_views(abstain, ignore, off)
             inside = inside.astype(np.int16) - self.counts(
                 [np.asarray(m, bool) & a for m, a in zip(masks, off, strict=True)])[1]
         occ = (seen >= int(holes) + 2) & (inside.astype(np.int16) >= seen - int(holes))
@@ -323,6 +325,17 @@ class Carver:
             _, near_inside = self.counts(near)
             occ &= near_inside.astype(np.int16) >= seen
         return occ
+
+
+    def _abstaining_views(self, abstain, ignore, off) -> np.ndarray:
+        """Per voxel, how many cameras abstain on it. It depends on the abstaining pixels and
+        the cameras left out only, not on the frame: a stage passes the same ``abstain`` list
+        every frame, so it is counted once per list and set of cameras left out."""
+        key = tuple(int(c) for c in ignore)
+        cached = self._abstained
+        if cached is None or cached[0] is not abstain or cached[1] != key:
+            cached = self._abstained = (abstain, key, self.counts(off)[1])
+        return cached[2]
 
 
 def _cached_carver(cameras: list, grid: VoxelGrid) -> Carver:

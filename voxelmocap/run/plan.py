@@ -31,9 +31,8 @@ from dataclasses import dataclass
 
 from ..config import TrackConfig, with_overrides
 
-__all__ = ["CONTINUED_SEARCH", "LOST_SHARE", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES", "PassPlan",
-           "RunPlan", "final_config", "masks_defaults", "pass_folder",
-           "plan_passes"]
+__all__ = ["CONTINUED_SEARCH", "LOST_SHARE", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES",
+           "PassPlan", "RunPlan", "final_config", "masks_defaults", "pass_folder", "plan_passes"]
 
 #: Fewest frames with the person a pass must track for the next pass to learn its plate from
 #: its body (the plate is the median of those frames around the body): on the rendered 8-frame
