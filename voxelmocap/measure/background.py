@@ -50,6 +50,7 @@ from ..config import SilhouetteConfig
 from ..errors import InputError
 from .carving import Carver
 from .plate import PlateBackground, _channels, camera_at_most, plate_from_frames
+from .threads import each
 
 __all__ = ["MIN_PERSON_MM3", "carve_person", "learn_plates", "moving_parts", "person_column",
            "person_component", "plates_from_covers", "watched_voxels"]
@@ -235,16 +236,8 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
     for it in range(iterations):
         person_frames = []
         for f in range(n_frames):
-            masks = []
-            for cam in small_cams:
-                img = small[cam.name][f]
-                bg = plates[cam.name]
-                raw = bg.foreground(img)
-                raw = _clean(raw, config)
-                if config.plate_ghost_ratio > 0:
-                    raw &= ~_ghost_blobs(raw, img, bg.plate, config.plate_ghost_ratio,
-                                         max(config.min_area // 4, 8))
-                masks.append(raw)
+            masks = each(lambda cam, f=f: _plate_mask(small[cam.name][f], plates[cam.name],
+                                                      config), small_cams)
             person = carve_person(carver, masks, holes, watched=watched)
             person_frames.append((person, masks))
             volumes[f] = person.sum()
@@ -256,11 +249,12 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                                            "median of the sequence: cannot learn a background "
                                            "plate; give empty background videos")
         vanished = volumes < config.plate_vanish_share * typical
-        change = 0.0
-        for c, cam in enumerate(small_cams):
+
+        def relearn(c, it_frames=person_frames, vanished=vanished):
+            cam = small_cams[c]
             cov = covered[cam.name]
             for f in range(n_frames):
-                person, masks = person_frames[f]
+                person, masks = it_frames[f]
                 cov[f] = True if vanished[f] else _cover(
                     person, carver, c, masks[c], support=person if config.plate_support else None)
             old = plates[cam.name]
@@ -275,7 +269,12 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                                   shadow_brightness=config.shadow_brightness,
                                   shadow_chromaticity=config.shadow_chromaticity)
             moved = np.sqrt(((new.plate - old.plate) ** 2).sum(axis=2)) > 3 * new.camera_sigma
-            change = max(change, float(moved.mean()))
+            return new, float(moved.mean())
+
+        # each camera's covers and plate depend on this pass's carvings only: side by side
+        relearnt = each(relearn, range(len(small_cams)))
+        change = max(share for _, share in relearnt)
+        for cam, (new, _) in zip(small_cams, relearnt, strict=True):
             plates[cam.name] = new
         if log is not None:
             log(f"background plate, pass {it + 1}: person in {int((~vanished).sum())} of "
@@ -308,6 +307,16 @@ def learn_plates(frames: Mapping[str, np.ndarray], cameras, grid,
                 f"{PERSON_COLUMN_HEIGHT_MM / 1000:g} m of the floor; empty background videos would "
                 "be better")
     return plates_from_covers(frames, cameras, covered, config, unknown_margin=barely_moves)
+
+
+def _plate_mask(image: np.ndarray, plate: PlateBackground, config: SilhouetteConfig
+                ) -> np.ndarray:
+    """One camera's cleaned foreground of a downscaled frame against this pass's plate."""
+    raw = _clean(plate.foreground(image), config)
+    if config.plate_ghost_ratio > 0:
+        raw &= ~_ghost_blobs(raw, image, plate.plate, config.plate_ghost_ratio,
+                             max(config.min_area // 4, 8))
+    return raw
 
 
 def person_column(person: np.ndarray, grid) -> np.ndarray:

@@ -19,6 +19,7 @@ from scipy import stats
 
 from ..config import SilhouetteConfig
 from ..errors import InputError
+from .threads import each
 
 __all__ = ["PlateBackground", "camera_at_most", "downscale_camera", "masked_median",
            "plate_from_frames"]
@@ -80,7 +81,8 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
         Also return the robust σ = (Q3 − Q1) / 1.349 of the kept samples (per pixel, the root
         mean square over the channels).
     rows : int
-        Rows processed at once (bounds the memory of the sort).
+        Rows per block: a block's sort holds ``F × rows × W × C`` uint16 values, and
+        :func:`~voxelmocap.measure.threads.width` blocks are sorted at once.
 
     Returns
     -------
@@ -93,14 +95,16 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
     med = np.zeros((h, w, c), np.float32)
     sig = np.zeros((h, w), np.float32)
     count = np.full((h, w), f, int) if keep is None else keep.sum(axis=0)
-    for r0 in range(0, h, rows):
+
+    def block_of(r0):
+        # the blocks are disjoint rows: side by side (:mod:`.threads`), each writes its own
         block = frames[:, r0:r0 + rows].astype(np.uint16)
         if keep is not None:
             block[~keep[:, r0:r0 + rows]] = 512          # sorts after every real value
         block.sort(axis=0)
         n = count[r0:r0 + rows]
 
-        def at(q, block=block, n=n):
+        def at(q):
             pos = np.clip((n - 1) * q, 0, None)
             lo = np.floor(pos).astype(int)
             hi = np.ceil(pos).astype(int)
@@ -116,6 +120,8 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
             s = np.sqrt((((at(0.75) - at(0.25)) / 1.349) ** 2).mean(axis=2))
             s[n < 4] = 0
             sig[r0:r0 + rows] = s
+
+    each(block_of, range(0, h, rows))
     return (med, count, sig) if quartiles else (med, count)
 
 

@@ -32,6 +32,7 @@ from ..grid import VoxelGrid
 from .carving import Carver
 from .observation import VoxelObservation
 from .silhouette import SilhouetteConfig, segment
+from .threads import each
 
 __all__ = ["BLACK_LEVEL", "BLACK_SHARE", "FULL_SHARE", "MeasurementStage", "VoxelObservation",
            "unusable_reason"]
@@ -155,14 +156,15 @@ class MeasurementStage:
         missing = [n for n in self.names if n not in images]
         if missing:
             raise InputError("images", f"no image for camera(s) {', '.join(missing)}")
-        out = []
         for cam in self.cameras:
             img = images[cam.name]
             w, h = cam.size
             if np.shape(img)[:2] != (h, w):
                 raise InputError("images", f"image of {cam.name} is {np.shape(img)[1]}x"
                                            f"{np.shape(img)[0]}, its calibration says {w}x{h}")
-            out.append(segment(img, self.backgrounds[cam.name], self.config, camera=cam.name))
+        # each camera's model is its own (an adaptive one learns from its camera's frames only)
+        out = each(lambda cam: segment(images[cam.name], self.backgrounds[cam.name], self.config,
+                                       camera=cam.name), self.cameras)
         if len({m.shape for m in out}) == 1:
             return np.stack(out)
         return out  # cameras of different sizes: a list of (H_c, W_c) masks

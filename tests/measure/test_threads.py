@@ -1,0 +1,96 @@
+"""The measurement's thread pool (voxelmocap.measure.threads): the same results, in order, as a
+plain loop, whatever OpenCV's thread count; work handed out from a worker stays in it."""
+
+import threading
+
+import cv2
+import numpy as np
+import pytest
+
+from voxelmocap.measure import threads
+from voxelmocap.measure.plate import masked_median
+
+
+@pytest.fixture
+def opencv_threads():
+    """Set OpenCV's thread count for one test, then restore it."""
+    before = cv2.getNumThreads()
+    yield cv2.setNumThreads
+    cv2.setNumThreads(before)
+
+
+def test_width_is_opencvs_thread_count(opencv_threads):
+    opencv_threads(1)
+    assert threads.width() == 1
+    opencv_threads(2)
+    assert threads.width() == 2
+
+
+def test_results_come_in_order_and_equal_a_loop(opencv_threads):
+    opencv_threads(2)
+    items = list(range(23))
+    assert threads.each(lambda x: x * x - 3, items) == [x * x - 3 for x in items]
+    assert threads.each(lambda x: x, []) == []
+
+
+def test_the_first_failing_item_in_order_is_raised(opencv_threads):
+    opencv_threads(2)
+
+    def fn(x):
+        if x in (3, 5):
+            raise ValueError(f"item {x}")
+        return x
+
+    with pytest.raises(ValueError, match="item 3"):
+        threads.each(fn, range(8))
+
+
+def test_work_handed_out_from_a_worker_runs_in_that_worker(opencv_threads):
+    """A pool of two whose two workers each hand out more work would wait on itself forever;
+    nested calls run in the calling worker instead."""
+    opencv_threads(2)
+    main = threading.current_thread()
+
+    def outer(x):
+        here = threading.current_thread()
+        inner = threads.each(lambda y: (threading.current_thread(), y), range(4))
+        return here, inner
+
+    out = threads.each(outer, range(4))
+    assert any(here is not main for here, _ in out)      # the outer calls went to the pool
+    for here, inner in out:
+        assert [y for _, y in inner] == [0, 1, 2, 3]
+        assert all(t is here for t, _ in inner)
+
+
+def test_masked_median_by_blocks_equals_numpys_percentiles(opencv_threads):
+    """Blocks of rows sorted side by side: the median and the quartiles' σ are numpy's linear
+    percentiles of each pixel's kept samples, with one thread and with two."""
+    rng = np.random.default_rng(11)
+    frames = rng.integers(0, 256, size=(13, 11, 6, 3), dtype=np.uint8)
+    keep = rng.random((13, 11, 6)) < 0.7
+    keep[:, 0, 0] = False                                 # a pixel never kept
+    keep[:, 0, 1] = False
+    keep[:3, 0, 1] = True                                 # one with too few for a σ
+    out = {}
+    for n in (1, 2):
+        opencv_threads(n)
+        out[n] = masked_median(frames, keep, quartiles=True, rows=2)
+    for a, b in zip(out[1], out[2], strict=True):
+        assert a.tobytes() == b.tobytes()
+    med, count, sigma = out[2]
+    for i in range(11):
+        for j in range(6):
+            k = keep[:, i, j]
+            assert count[i, j] == k.sum()
+            if not k.any():
+                assert (med[i, j] == 0).all() and sigma[i, j] == 0
+                continue
+            s = frames[k, i, j].astype(float)
+            np.testing.assert_allclose(med[i, j], np.percentile(s, 50, axis=0), rtol=1e-6)
+            if k.sum() >= 4:
+                iqr = np.percentile(s, 75, axis=0) - np.percentile(s, 25, axis=0)
+                np.testing.assert_allclose(sigma[i, j], np.sqrt(np.mean((iqr / 1.349) ** 2)),
+                                           rtol=1e-5)
+            else:
+                assert sigma[i, j] == 0

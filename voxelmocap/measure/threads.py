@@ -1,0 +1,73 @@
+"""Independent pieces of measurement work run side by side: one camera's silhouette, one block
+of a plate's rows.
+
+GrabCut, morphology and numpy's sort run on one core each and release the GIL, so the cameras
+of a frame (or the row blocks of a median) are done by a small pool of threads. The pool is as
+wide as OpenCV's own thread count (``cv2.getNumThreads()``, which ``OPENCV_FOR_THREADS_NUM`` and
+``cv2.setNumThreads`` set), so whoever limits OpenCV's threads limits these too. Each piece is
+a pure function of its inputs — GrabCut's k-means start is seeded in the thread that runs it
+(OpenCV's generator is per thread) — so the results do not depend on the width.
+
+Work handed out from a worker thread runs in that thread, one piece after another: the pool
+is never waited on by its own workers.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+import cv2
+
+__all__ = ["each", "width"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+_local = threading.local()
+_pools: dict[int, ThreadPoolExecutor] = {}
+_lock = threading.Lock()
+
+
+def width() -> int:
+    """Threads that :func:`each` uses: OpenCV's thread count (at least 1)."""
+    return max(1, int(cv2.getNumThreads()))
+
+
+def each(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """``[fn(x) for x in items]``, the calls spread over :func:`width` threads.
+
+    Parameters
+    ----------
+    fn : callable
+        Called once per item; calls must not depend on each other's effects.
+    items : iterable
+
+    Returns
+    -------
+    list
+        The results in the order of ``items``. The first exception (in that order) is raised.
+    """
+    items = list(items)
+    n = min(width(), len(items))
+    if n <= 1 or getattr(_local, "worker", False):
+        return [fn(x) for x in items]
+    return list(_pool(n).map(lambda x: _as_worker(fn, x), items))
+
+
+def _as_worker(fn, x):
+    _local.worker = True
+    try:
+        return fn(x)
+    finally:
+        _local.worker = False
+
+
+def _pool(n: int) -> ThreadPoolExecutor:
+    with _lock:
+        pool = _pools.get(n)
+        if pool is None:
+            pool = _pools[n] = ThreadPoolExecutor(n, thread_name_prefix="voxelmocap-measure")
+        return pool
