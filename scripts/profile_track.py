@@ -35,6 +35,7 @@ import json
 import os
 import resource
 import sys
+import threading
 import time
 from collections import defaultdict
 
@@ -101,7 +102,15 @@ def _statm_rss() -> int:
 
 
 class StageClock:
-    """Exclusive CPU and wall seconds per (pass, phase, operation), kept with two stacks."""
+    """Exclusive CPU and wall seconds per (pass, phase, operation), kept with two stacks.
+
+    The measurement hands pieces of work to a few threads (:mod:`voxelmocap.measure.threads`).
+    A worker keeps its own operation stack and charges its own CPU seconds
+    (:func:`time.thread_time`) to the main thread's pass and phase and its innermost operation
+    (or, with none, the main thread's); those seconds are taken off what the main thread
+    charges next, since the process's CPU time counts every thread. Wall seconds are the main
+    thread's only.
+    """
 
     def __init__(self):
         self.cpu = defaultdict(float)
@@ -112,28 +121,63 @@ class StageClock:
         self.pass_name = "setup"
         self.t_cpu, self.t_wall = time.process_time(), time.perf_counter()
         self.peak = (0, "")
+        self._lock = threading.Lock()
+        self._workers = threading.local()
+        self._offloaded = 0.0                  # worker CPU charged since the main's last charge
 
-    def key(self):
+    def key(self, ops=None):
+        ops = self.ops if ops is None else (ops or self.ops)
         return (self.pass_name, self.phases[0] if self.phases else FRAMES,
-                self.ops[-1] if self.ops else "")
+                ops[-1] if ops else "")
 
     def _charge(self):
+        if threading.current_thread() is not threading.main_thread():
+            return self._charge_worker()
         c, w = time.process_time(), time.perf_counter()
         key = self.key()
-        self.cpu[key] += c - self.t_cpu
+        with self._lock:
+            self.cpu[key] += c - self.t_cpu - self._offloaded
+            self._offloaded = 0.0
         self.wall[key] += w - self.t_wall
         self.t_cpu, self.t_wall = c, w
         rss = _statm_rss()
         if rss > self.peak[0]:
             self.peak = (rss, " / ".join(k for k in key if k))
 
+    def _worker_ops(self) -> list:
+        if not hasattr(self._workers, "ops"):
+            self._workers.ops, self._workers.t = [], time.thread_time()
+        return self._workers.ops
+
+    def worker_begin(self):
+        """A worker starts a piece of work: its CPU from here on is charged (earlier seconds,
+        the pool's own, stay with the main thread's count)."""
+        self._worker_ops()
+        self._workers.t = time.thread_time()
+
+    def _charge_worker(self):
+        ops = self._worker_ops()
+        c = time.thread_time()
+        with self._lock:
+            self.cpu[self.key(ops)] += c - self._workers.t
+            self._offloaded += c - self._workers.t
+        self._workers.t = c
+
     def enter(self, kind, name):
         self._charge()
+        if threading.current_thread() is not threading.main_thread():
+            if kind == "op":
+                self._worker_ops().append(name)
+            return
         (self.phases if kind == "phase" else self.ops).append(name)
         self.calls[self.key()] += 1
 
     def leave(self, kind):
         self._charge()
+        if threading.current_thread() is not threading.main_thread():
+            if kind == "op":
+                self._worker_ops().pop()
+            return
         (self.phases if kind == "phase" else self.ops).pop()
 
     def set_pass(self, name):
@@ -215,6 +259,19 @@ def install() -> None:
             CLOCK.set_pass("after")
 
     frame_loop.PassRun.run = pass_run
+
+    from voxelmocap.measure import threads
+
+    item = threads._as_worker
+
+    def as_worker(fn, x):
+        CLOCK.worker_begin()
+        try:
+            return item(fn, x)
+        finally:
+            CLOCK._charge()
+
+    threads._as_worker = as_worker
 
 
 def table(clock: StageClock, min_cpu: float = 0.05) -> str:

@@ -239,3 +239,19 @@ def test_masks_of_learnt_plates_are_the_same_with_one_and_two_threads(scene):
     for m, name in zip(got[2], rig.names, strict=True):
         t = truth[name]
         assert (m & t).sum() / (m | t).sum() > 0.9
+
+
+def test_gaussian_models_segment_in_the_calling_thread(scene, monkeypatch):
+    """The Gaussian model's numba kernel is parallel already, and numba's workqueue layer
+    aborts on launches from two threads: such a stage never hands a camera to the pool."""
+    import voxelmocap.measure.stage as stage_module
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("handed to the thread pool")
+
+    rig, grid, bg_frames, images, _ = scene
+    cfg = SilhouetteConfig()
+    stage = MeasurementStage(rig, grid, build_backgrounds(cfg, rig.names, bg_frames), cfg)
+    expected = stage.masks(images)
+    monkeypatch.setattr(stage_module, "each", refuse)
+    np.testing.assert_array_equal(stage.masks(images), expected)

@@ -153,7 +153,13 @@ class PlateBackground:
         The χ² quantile that ``Σ_c (I_c − g P_c)² / σ²`` must exceed.
     camera_sigma : float
         The median of ``sigma`` over the known pixels: the camera's noise level.
+    concurrent : bool
+        True: segmenting with it (numpy and OpenCV, GrabCut on one core) may run beside other
+        cameras' in threads (:meth:`~voxelmocap.measure.stage.MeasurementStage.masks`).
     """
+
+    #: numpy and OpenCV only: several cameras may be segmented at once
+    concurrent = True
 
     def __init__(self, plate, sigma, known=None, *, false_alarm: float = _DEFAULT.false_alarm,
                  shadows: bool = _DEFAULT.shadows,

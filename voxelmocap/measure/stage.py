@@ -140,6 +140,9 @@ class MeasurementStage:
     def masks(self, images: Mapping) -> np.ndarray:
         """Silhouettes of one frame (adaptive background models learn from it).
 
+        With learnt plates (:class:`~voxelmocap.measure.plate.PlateBackground`) the cameras are
+        segmented side by side (:mod:`.threads`); the masks are the same either way.
+
         Parameters
         ----------
         images : mapping of str to (H, W) or (H, W, 3) uint8 ndarray
@@ -162,9 +165,18 @@ class MeasurementStage:
             if np.shape(img)[:2] != (h, w):
                 raise InputError("images", f"image of {cam.name} is {np.shape(img)[1]}x"
                                            f"{np.shape(img)[0]}, its calibration says {w}x{h}")
-        # each camera's model is its own (an adaptive one learns from its camera's frames only)
-        out = each(lambda cam: segment(images[cam.name], self.backgrounds[cam.name], self.config,
-                                       camera=cam.name), self.cameras)
+
+        def one(cam):
+            return segment(images[cam.name], self.backgrounds[cam.name], self.config,
+                           camera=cam.name)
+
+        # Learnt plates (GrabCut, one core each) segment their cameras side by side. The
+        # Gaussian model's numba kernel already uses every core, and numba's fallback threading
+        # layer refuses launches from two threads at once: such cameras go one after another.
+        if all(getattr(self.backgrounds[c.name], "concurrent", False) for c in self.cameras):
+            out = each(one, self.cameras)
+        else:
+            out = [one(cam) for cam in self.cameras]
         if len({m.shape for m in out}) == 1:
             return np.stack(out)
         return out  # cameras of different sizes: a list of (H_c, W_c) masks
