@@ -94,3 +94,30 @@ def test_masked_median_by_blocks_equals_numpys_percentiles(opencv_threads):
                                            rtol=1e-5)
             else:
                 assert sigma[i, j] == 0
+
+
+def test_at_most_bounds_how_many_run_at_once(opencv_threads):
+    """``at_most=1`` runs every piece in the calling thread; ``at_most=2`` never has more than
+    two pieces in flight (counted under a lock while each piece waits a little)."""
+    import time
+
+    opencv_threads(4)                                    # a pool of four, were it not bounded
+    main = threading.current_thread()
+    assert all(t is main for t in threads.each(lambda x: threading.current_thread(), range(5),
+                                               at_most=1))
+    lock, now, most = threading.Lock(), [0], [0]
+
+    def piece(x):
+        with lock:
+            now[0] += 1
+            most[0] = max(most[0], now[0])
+        time.sleep(0.05)
+        with lock:
+            now[0] -= 1
+        return x
+
+    assert threads.each(piece, range(8), at_most=2) == list(range(8))
+    assert most[0] <= 2
+    most[0] = 0
+    threads.each(piece, range(8))
+    assert most[0] > 2                                   # unbounded, more did run at once

@@ -25,6 +25,9 @@ __all__ = ["PlateBackground", "camera_at_most", "downscale_camera", "masked_medi
            "plate_from_frames"]
 
 _DEFAULT = SilhouetteConfig()
+#: The sort buffers :func:`masked_median` holds at once, at most (bytes; at least one block):
+#: two blocks of 60 frames × 128 rows of a 1920-pixel-wide colour camera.
+_SORT_BYTES = 200 * 2 ** 20
 #: Gains outside this range mean the frame is not comparable with the plate (lights switched).
 _GAIN_RANGE = (0.5, 2.0)
 
@@ -81,8 +84,9 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
         Also return the robust σ = (Q3 − Q1) / 1.349 of the kept samples (per pixel, the root
         mean square over the channels).
     rows : int
-        Rows per block: a block's sort holds ``F × rows × W × C`` uint16 values, and
-        :func:`~voxelmocap.measure.threads.width` blocks are sorted at once.
+        Rows per block: a block's sort holds ``F × rows × W × C`` uint16 values; blocks are
+        sorted side by side (:func:`~voxelmocap.measure.threads.each`), as many at once as fit
+        in 200 MiB of such buffers.
 
     Returns
     -------
@@ -121,7 +125,9 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
             s[n < 4] = 0
             sig[r0:r0 + rows] = s
 
-    each(block_of, range(0, h, rows))
+    # a block's sort buffer is F × rows × W × C uint16: at most _SORT_BYTES of them at once
+    block_bytes = 2 * f * min(rows, h) * w * c
+    each(block_of, range(0, h, rows), at_most=max(1, _SORT_BYTES // max(block_bytes, 1)))
     return (med, count, sig) if quartiles else (med, count)
 
 

@@ -36,7 +36,7 @@ def width() -> int:
     return max(1, int(cv2.getNumThreads()))
 
 
-def each(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+def each(fn: Callable[[T], R], items: Iterable[T], *, at_most: int | None = None) -> list[R]:
     """``[fn(x) for x in items]``, the calls spread over :func:`width` threads.
 
     Parameters
@@ -44,6 +44,8 @@ def each(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
     fn : callable
         Called once per item; calls must not depend on each other's effects.
     items : iterable
+    at_most : int, optional
+        Run at most this many at once (e.g. to bound the memory the pieces hold together).
 
     Returns
     -------
@@ -51,7 +53,7 @@ def each(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         The results in the order of ``items``. The first exception (in that order) is raised.
     """
     items = list(items)
-    n = min(width(), len(items))
+    n = min(width(), len(items), len(items) if at_most is None else max(1, int(at_most)))
     if n <= 1 or getattr(_local, "worker", False):
         return [fn(x) for x in items]
     return list(_pool(n).map(lambda x: _as_worker(fn, x), items))
