@@ -26,8 +26,9 @@ __all__ = ["PlateBackground", "camera_at_most", "downscale_camera", "masked_medi
 
 _DEFAULT = SilhouetteConfig()
 #: The sort buffers :func:`masked_median` holds at once, at most (bytes; at least one block):
-#: two blocks of 60 frames × 128 rows of a 1920-pixel-wide colour camera.
-_SORT_BYTES = 200 * 2 ** 20
+#: two blocks of 60 frames × 64 rows of a 1920-pixel-wide colour camera, as much as one block of
+#: 128 rows took before the blocks were sorted side by side (a run's peak memory is there).
+_SORT_BYTES = 100 * 2 ** 20
 #: Gains outside this range mean the frame is not comparable with the plate (lights switched).
 _GAIN_RANGE = (0.5, 2.0)
 
@@ -72,7 +73,7 @@ def camera_at_most(camera, max_side: int):
 
 
 def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
-                  quartiles: bool = False, rows: int = 128):
+                  quartiles: bool = False, rows: int = 64):
     """Per-pixel median of the frames where ``keep`` is True.
 
     Parameters
@@ -86,7 +87,7 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
     rows : int
         Rows per block: a block's sort holds ``F × rows × W × C`` uint16 values; blocks are
         sorted side by side (:func:`~voxelmocap.measure.threads.each`), as many at once as fit
-        in 200 MiB of such buffers.
+        in 100 MiB of such buffers.
 
     Returns
     -------
