@@ -121,3 +121,18 @@ def test_at_most_bounds_how_many_run_at_once(opencv_threads):
     most[0] = 0
     threads.each(piece, range(8))
     assert most[0] > 2                                   # unbounded, more did run at once
+
+
+def _squares():
+    return threads.each(lambda x: x * x, range(4))
+
+
+def test_a_forked_child_makes_its_own_pool(opencv_threads):
+    """The parent's pool threads do not survive a fork: a child that used the parent's pool
+    object would wait forever (here: the 60 s timeout fails the test)."""
+    import multiprocessing
+
+    opencv_threads(2)
+    assert _squares() == [0, 1, 4, 9]                   # the parent's pool now exists
+    with multiprocessing.get_context("fork").Pool(1) as child:
+        assert child.apply_async(_squares).get(timeout=60) == [0, 1, 4, 9]

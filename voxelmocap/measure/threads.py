@@ -9,11 +9,13 @@ a pure function of its inputs — GrabCut's k-means start is seeded in the threa
 (OpenCV's generator is per thread) — so the results do not depend on the width.
 
 Work handed out from a worker thread runs in that thread, one piece after another: the pool
-is never waited on by its own workers.
+is never waited on by its own workers. A process forked from one that used the pool starts
+without it (the threads do not survive the fork) and makes its own.
 """
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
@@ -65,6 +67,17 @@ def _as_worker(fn, x):
         return fn(x)
     finally:
         _local.worker = False
+
+
+def _forget_pools() -> None:
+    # A forked child inherits the pools but not their threads: it would wait on them forever.
+    global _lock
+    _pools.clear()
+    _lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pools)
 
 
 def _pool(n: int) -> ThreadPoolExecutor:
