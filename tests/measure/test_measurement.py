@@ -204,35 +204,29 @@ def test_prefix_kernel_equals_numpy_on_a_masked_scene():
     assert np.array_equal(obs.smoothed_q, q)
 
 
-def test_masks_of_learnt_plates_are_the_same_with_one_and_two_threads(scene):
+def test_masks_of_learnt_plates_are_the_same_with_one_and_two_threads(scene, opencv_threads):
     """The cameras are segmented side by side (:mod:`voxelmocap.measure.threads`): with plates
     that never saw a band around the sphere's outline (GrabCut decides it, its k-means start drawn from
     OpenCV's per-thread generator) the masks equal a camera-by-camera loop, with one OpenCV
     thread and with two."""
-    import cv2
-
-    from voxelmocap.measure.plate import plate_from_frames
+    from voxelmocap.measure.plate import PlateBackground, plate_from_frames
     from voxelmocap.measure.silhouette import segment
 
     rig, grid, bg_frames, images, truth = scene
     cfg = SilhouetteConfig(plate_unknown="grabcut")
     plates = {}
     for cam in rig:
-        plate = plate_from_frames(np.asarray(bg_frames[cam.name]), cfg)
+        learnt = plate_from_frames(np.asarray(bg_frames[cam.name]), cfg)
         edge = (ndimage.binary_dilation(truth[cam.name], iterations=10)
                 & ~ndimage.binary_erosion(truth[cam.name], iterations=10))
-        plate.known = ~edge                               # never seen around the outline
-        plates[cam.name] = plate
+        # never seen around the outline
+        plates[cam.name] = PlateBackground(learnt.plate, learnt.sigma, ~edge)
     loop = [segment(images[n], plates[n], cfg, camera=n) for n in rig.names]
     stage = MeasurementStage(rig, grid, plates, cfg)
-    before = cv2.getNumThreads()
-    try:
-        got = {}
-        for n in (1, 2):
-            cv2.setNumThreads(n)
-            got[n] = stage.masks(images)
-    finally:
-        cv2.setNumThreads(before)
+    got = {}
+    for n in (1, 2):
+        opencv_threads(n)
+        got[n] = stage.masks(images)
     for n in (1, 2):
         assert np.array_equal(got[n], np.stack(loop))
     # GrabCut did decide the never-seen pixels: the masks are the sphere, not the whole band

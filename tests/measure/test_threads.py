@@ -3,20 +3,11 @@ plain loop, whatever OpenCV's thread count; work handed out from a worker stays 
 
 import threading
 
-import cv2
 import numpy as np
 import pytest
 
 from voxelmocap.measure import threads
 from voxelmocap.measure.plate import masked_median
-
-
-@pytest.fixture
-def opencv_threads():
-    """Set OpenCV's thread count for one test, then restore it."""
-    before = cv2.getNumThreads()
-    yield cv2.setNumThreads
-    cv2.setNumThreads(before)
 
 
 def test_width_is_opencvs_thread_count(opencv_threads):

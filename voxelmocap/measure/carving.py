@@ -326,7 +326,6 @@ class Carver:
             occ &= near_inside.astype(np.int16) >= seen
         return occ
 
-
     def _abstaining_views(self, abstain, ignore, off) -> np.ndarray:
         """Per voxel, how many cameras abstain on it. It depends on the abstaining pixels and
         the cameras left out only, not on the frame: a stage passes the same ``abstain`` list
