@@ -60,6 +60,32 @@ def test_round_trip(tmp_path):
             dump.occupancy(8)
 
 
+def test_masks_of_cameras_of_different_sizes(tmp_path):
+    # a rig whose cameras differ in size (the Pose2Sim demo's cam04 is 1088 wide, the others
+    # 1080): each camera's silhouettes come back at its own size, exactly as written
+    rng = np.random.default_rng(3)
+    small, large = _cameras()
+    large = Camera(large.name, fc=large.fc, cc=large.cc, R=large.R, T=large.T, size=(36, 20))
+    path = tmp_path / "sizes.h5"
+    written = {}
+    with VoxelDumpWriter(path, GRID, cameras=[small, large]) as out:
+        for fr in (1, 2):
+            masks = [rng.random((24, 32)) < 0.5, rng.random((20, 36)) < 0.5]
+            out.write(fr, rng.random(GRID.shape) < 0.2, masks=masks)
+            written[fr] = masks
+        with pytest.raises(InputError, match="differ from earlier frames"):
+            out.write(3, np.zeros(GRID.shape, bool),
+                      masks=[np.zeros((24, 32), bool), np.zeros((24, 36), bool)])
+        with pytest.raises(InputError, match=r"expected 2 \(H, W\) masks"):
+            out.write(3, np.zeros(GRID.shape, bool), masks=[np.zeros((24, 32), bool)])
+    with VoxelDump(path) as dump:
+        for fr, masks in written.items():
+            got = dump.masks(fr)
+            assert [m.shape for m in got] == [(24, 32), (20, 36)]
+            for a, b in zip(got, masks, strict=True):
+                assert a.dtype == bool and np.array_equal(a, b)
+
+
 def test_occupancy_only_and_consistency(tmp_path):
     path = tmp_path / "occ.h5"
     occ = np.zeros(GRID.shape, bool)

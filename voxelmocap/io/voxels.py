@@ -9,6 +9,8 @@ HDF5 layout (``format = "voxelmocap-voxels"``, ``version = 1``)::
     /surface          (F, nx, ny, nz) uint8   V^S (0/1)             optional
     /smoothed         (F, nx, ny, nz) float32 Ṽ^S in [0, 1]         optional
     /masks            (F, N_C, H, W) uint8    silhouettes (0/1)      optional
+                      attrs: sizes (N_C, 2) each camera's (W, H); a smaller image fills the
+                      top-left of its plane, the rest 0 (H, W: the largest)
     /cameras/<name>   attrs: fc, cc, alpha_c, kc, R, T, size         optional (the rig used)
 
 Volumes are chunked one frame per chunk (masks one camera image per chunk) and gzip-compressed,
@@ -140,8 +142,8 @@ class VoxelDumpWriter:
             ``V^S``.
         smoothed : (nx, ny, nz) array_like of float, optional
             ``Ṽ^S``.
-        masks : (N_C, H, W) array_like of bool, optional
-            Silhouettes in camera order.
+        masks : (N_C, H, W) array_like or sequence of (H_c, W_c) array_like of bool, optional
+            Silhouettes in camera order (cameras may differ in size).
 
         Every frame of a file must carry the same optional volumes.
         """
@@ -163,19 +165,17 @@ class VoxelDumpWriter:
                             (arr != 0).astype(np.uint8) if dtype == np.uint8
                             else arr.astype(np.float32)))
         if masks is not None:
-            m = np.asarray(masks)
-            if m.ndim != 3 or (self.cameras and len(m) != len(self.cameras)):
-                raise InputError("masks", f"expected ({len(self.cameras) or 'N_C'}, H, W) masks, "
-                                          f"got shape {m.shape}")
+            m, sizes = _padded_masks(masks, len(self.cameras))
             known = self._datasets.get("masks")
-            if known is not None and known.shape[1:] != m.shape:
-                raise InputError("masks", f"shape {m.shape} differs from earlier frames' "
-                                          f"{known.shape[1:]}")
-            volumes.append(("masks", np.uint8, m.shape, (1, *m.shape[1:]),
-                            (m != 0).astype(np.uint8)))
+            if known is not None and not np.array_equal(known.attrs["sizes"], sizes):
+                raise InputError("masks", f"sizes {sizes.tolist()} differ from earlier frames' "
+                                          f"{known.attrs['sizes'].tolist()}")
+            volumes.append(("masks", np.uint8, m.shape, (1, *m.shape[1:]), m))
         try:
             for name, dtype, row_shape, chunk, value in volumes:
                 ds = self._dataset(name, row_shape, dtype, chunk)
+                if name == "masks" and "sizes" not in ds.attrs:
+                    ds.attrs["sizes"] = sizes
                 ds.resize(self._n + 1, axis=0)
                 ds[self._n] = value
             frames = self._dataset("frames", (), np.int32, ())
@@ -356,9 +356,34 @@ class VoxelDump:
         """``(nx, ny, nz)`` float32 ``Ṽ^S`` of ``frame``."""
         return self._read("smoothed", frame)
 
-    def masks(self, frame: int) -> np.ndarray:
-        """``(N_C, H, W)`` bool silhouettes of ``frame``."""
-        return self._read("masks", frame).astype(bool)
+    def masks(self, frame: int):
+        """The silhouettes of ``frame`` in camera order.
+
+        Returns
+        -------
+        (N_C, H, W) bool ndarray, or list of (H_c, W_c) bool ndarray
+            An array when every camera has the same image size, else one array per camera at
+            its own size (the file stores them padded to the largest).
+        """
+        stacked = self._read("masks", frame).astype(bool)
+        sizes = self._file["masks"].attrs.get("sizes")
+        if sizes is None or (np.asarray(sizes) == sizes[0]).all():
+            return stacked    # version-1 files before 2026-11-27 hold one size and no "sizes"
+        return [m[:h, :w] for m, (w, h) in zip(stacked, sizes.tolist(), strict=True)]
+
+
+def _padded_masks(masks, n_cameras: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(N_C, H_max, W_max)`` uint8 0/1 masks padded with 0, and their ``(N_C, 2)`` (W, H)."""
+    arrays = [np.asarray(m) for m in masks]
+    if (not arrays or any(a.ndim != 2 for a in arrays)
+            or (n_cameras and len(arrays) != n_cameras)):
+        got = [a.shape for a in arrays]
+        raise InputError("masks", f"expected {n_cameras or 'N_C'} (H, W) masks, got shapes {got}")
+    sizes = np.array([(a.shape[1], a.shape[0]) for a in arrays], dtype=np.int64)
+    out = np.zeros((len(arrays), sizes[:, 1].max(), sizes[:, 0].max()), np.uint8)
+    for plane, a in zip(out, arrays, strict=True):
+        plane[:a.shape[0], :a.shape[1]] = a != 0
+    return out, sizes
 
 
 def write_ply(path, grid: VoxelGrid, occupancy, *, values=None, points: bool = False) -> int:

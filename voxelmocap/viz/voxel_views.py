@@ -62,7 +62,7 @@ def views_figure(grid, volume, frame: int, *, cameras=(), masks=None, title: str
         Frame number (the default title).
     cameras : sequence of Camera
         Cameras whose views get a panel each.
-    masks : (N_C, H, W) bool ndarray, optional
+    masks : (N_C, H, W) bool ndarray or list of (H_c, W_c) bool ndarray, optional
         Their silhouettes, drawn under the projected voxels.
     title : str
         Figure title.
