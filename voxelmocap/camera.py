@@ -319,6 +319,20 @@ class Camera:
         return Camera(self.name, self.fc, self.cc, self.R, self.T, self.alpha_c, self.kc, size,
                       self.source)
 
+    def resized(self, size) -> Camera:
+        """The camera of the same view imaged at ``size = (W', H')`` pixels (a resized image).
+
+        The image's edges map onto each other (OpenCV's ``resize``), so pixel centres go as
+        ``u' = (u + ½)·W'/W − ½`` (Bouguet's pixel (0, 0) is centred at (0, 0)): ``fc`` scales
+        by ``W'/W`` and ``H'/H``, ``cc`` as a pixel centre; the skew and distortion, which act
+        on normalised coordinates, stay.
+        """
+        w, h = self.size
+        s = np.array([size[0] / w, size[1] / h])
+        return Camera(self.name, np.asarray(self.fc) * s, (np.asarray(self.cc) + 0.5) * s - 0.5,
+                      self.R, self.T, self.alpha_c, self.kc, (int(size[0]), int(size[1])),
+                      self.source)
+
     def __repr__(self) -> str:
         c = self.center
         return (f"Camera({self.name!r}, f=({self.fc[0]:.1f}, {self.fc[1]:.1f}), "

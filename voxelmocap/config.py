@@ -213,6 +213,11 @@ class MeasurementConfig(Section):
                                        "and place the grid", unit="mm", ge=VOXEL_SIZE_RANGE[0],
                                        le=VOXEL_SIZE_RANGE[1], says=_VOXEL_SAYS)
 
+    max_image_side: int = setting(
+        0, "images longer than this on a side are shrunk to it as they are decoded (area "
+        "average), and their cameras with them, so a recording is measured at one resolution "
+        "however it was filmed (0 = as filmed)", unit="pixels", ge=0)
+
     _rules: typing.ClassVar[tuple[Rule, ...]] = (together("grid_origin", "grid_shape"),)
 
 

@@ -67,6 +67,19 @@ def test_png_masks_are_read_exactly_in_any_order(project, tmp_path):
     assert [f for f, _ in given.read([2, 3])] == [2, 3]
 
 
+def test_masks_of_a_sequence_measured_at_a_working_size_are_shrunk_with_it(project, tmp_path):
+    from voxelmocap.io.working_size import at_most_side
+
+    _, seq, _, masks = project
+    small = at_most_side(seq, 320)
+    given = PersonMasks(_write(tmp_path / "masks", masks), small)   # the videos' size: accepted
+    for cam, m in zip(seq.camera_names, given.of(3), strict=True):
+        share = cv2.resize(masks[cam][2].astype(np.float32), small.rig[cam].size,
+                           interpolation=cv2.INTER_AREA)
+        assert m.shape == (240, 320) and m.dtype == bool
+        np.testing.assert_array_equal(m, share > 0.5)
+
+
 def test_mp4_masks_named_like_the_videos(project, tmp_path):
     _, seq, _, masks = project
     names = {c: seq.video_path(c).name for c in seq.camera_names}   # the PNG folders' names

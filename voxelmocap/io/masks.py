@@ -42,7 +42,9 @@ class PersonMasks:
         The masks folder (see the module's docstring).
     seq : sequence
         The opened sequence (``camera_names``, ``starts``, ``n_frames``, ``rig`` and, for a
-        project, ``video_path``).
+        project, ``video_path``). Of a sequence measured at a working size
+        (:class:`~voxelmocap.io.working_size.AtMostSide`) the masks are checked against its
+        videos' size and shrunk with its images.
 
     Attributes
     ----------
@@ -62,6 +64,9 @@ class PersonMasks:
             raise InputError(folder, "masks folder not found")
         listed = find_videos(folder)
         found = {name.lower(): path for name, path in listed.items()}
+        # masks come at the videos' size; a working size shrinks them as it does the images
+        self._shrink = getattr(seq, "shrink_mask", None)
+        seq = getattr(seq, "native", seq)
         self.camera_names = list(seq.camera_names)
         self.rig = seq.rig
         self.starts = {c: int(seq.starts[c]) for c in self.camera_names}
@@ -108,7 +113,10 @@ class PersonMasks:
         readers = {c: self._streams[c].read([self.starts[c] + f - 2 for f in frames])
                    for c in self.camera_names}
         for f in frames:
-            yield f, [next(readers[c])[1] > MASK_LEVEL for c in self.camera_names]
+            masks = [next(readers[c])[1] > MASK_LEVEL for c in self.camera_names]
+            if self._shrink is not None:
+                masks = [self._shrink(c, m) for c, m in zip(self.camera_names, masks, strict=True)]
+            yield f, masks
 
     def of(self, frame: int) -> list[np.ndarray]:
         """The masks of one synchronised frame (rig order). Frames asked for in increasing

@@ -11,8 +11,6 @@ the person a sequence shows.
 
 from __future__ import annotations
 
-import dataclasses
-
 import cv2
 import numpy as np
 from scipy import stats
@@ -54,15 +52,9 @@ def _gain(image: np.ndarray, plate: np.ndarray, known: np.ndarray | None = None)
 
 
 def downscale_camera(camera, size):
-    """The camera of the same view imaged at ``size = (W', H')`` pixels (pixel centres kept).
-
-    Bouguet's pixel (0, 0) is centred at (0, 0), so ``u' = (u + ½)·W'/W − ½``.
-    """
-    w, h = camera.size
-    s = np.array([size[0] / w, size[1] / h])
-    return dataclasses.replace(camera, fc=np.asarray(camera.fc) * s,
-                               cc=(np.asarray(camera.cc) + 0.5) * s - 0.5,
-                               size=(int(size[0]), int(size[1])))
+    """The camera of the same view imaged at ``size = (W', H')`` pixels (pixel centres kept:
+    :meth:`voxelmocap.camera.Camera.resized`)."""
+    return camera.resized(size)
 
 
 def camera_at_most(camera, max_side: int):
