@@ -591,6 +591,54 @@ def test_grabcut_decides_a_person_whose_pixels_were_all_never_seen():
     assert segment_with(stood, image, "grabcut")[~known].mean() > 0.95
 
 
+def _refine_whole_image(bg, image, mask, config):
+    """``PlateBackground.refine`` as it was written first: the blobs labelled on the whole
+    image (the reference of the bounding-box labelling)."""
+    import cv2
+
+    from voxelmocap.measure.plate import _grabcut
+
+    mask = np.array(mask, bool)
+    unknown = mask & ~bg.known
+    if not unknown.any():
+        return mask
+    img = np.ascontiguousarray(image)
+    n, labels, st, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    has_unknown = np.bincount(labels[unknown], minlength=n) > 0
+    h, w = mask.shape
+    for k in np.flatnonzero(has_unknown[1:]) + 1:
+        x, y, bw, bh = (int(st[k, i]) for i in (0, 1, 2, 3))
+        pad = max(bw, bh) // 4 + 8
+        box = (slice(max(y - pad, 0), min(y + bh + pad, h)),
+               slice(max(x - pad, 0), min(x + bw + pad, w)))
+        mask[box] = _grabcut(img[box], mask[box], bg.known[box], config.grabcut_scale,
+                             config.grabcut_iterations, unknown_alone=bg.unknown_margin)
+    return mask
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_grabcut_on_blobs_labelled_in_the_bounding_box_equals_the_whole_image_labelling(seed):
+    # several blobs, some crossing the never-seen region, some touching the image's edges,
+    # some nested in another's box: each decided as when labelled on the whole image
+    rng = np.random.default_rng(seed)
+    h, w = 180, 240
+    plate = rng.uniform(120, 200, (h, w, 3)).astype(np.float32)
+    image = np.clip(plate + rng.normal(0, 2, plate.shape), 0, 255).astype(np.uint8)
+    mask = np.zeros((h, w), bool)
+    for _ in range(12):
+        y, x = rng.integers(0, h), rng.integers(0, w)
+        ry, rx = rng.integers(2, 25, 2)
+        mask[max(y - ry, 0):y + ry, max(x - rx, 0):x + rx] = True
+        image[max(y - ry, 0):y + ry, max(x - rx, 0):x + rx] = rng.integers(0, 80, 3)
+    known = np.ones((h, w), bool)
+    known[40:150, 60:200] = False
+    for margin in (False, True):
+        bg = PlateBackground(plate, 2.0, known, unknown_margin=margin)
+        config = SilhouetteConfig()
+        np.testing.assert_array_equal(bg.refine(image, mask, config),
+                                      _refine_whole_image(bg, image, mask, config))
+
+
 def segment_with(bg, image, mode):
     from voxelmocap.measure.silhouette import segment
 

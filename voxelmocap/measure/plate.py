@@ -254,11 +254,17 @@ class PlateBackground:
         if img.shape[2] == 1:
             img = np.repeat(img, 3, axis=2)
         img = np.ascontiguousarray(img.astype(np.uint8, copy=False))
-        n, labels, st, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
-        has_unknown = np.bincount(labels[unknown], minlength=n) > 0
+        # Labelled on the mask's bounding box: every blob lies inside it, and the labels come in
+        # the same raster order as on the whole image (the blobs are decided in that order)
+        m8 = mask.astype(np.uint8)
+        bx, by, bw_, bh_ = cv2.boundingRect(m8)
+        n, labels, st, _ = cv2.connectedComponentsWithStats(
+            np.ascontiguousarray(m8[by:by + bh_, bx:bx + bw_]), connectivity=8)
+        has_unknown = np.bincount(labels[unknown[by:by + bh_, bx:bx + bw_]], minlength=n) > 0
         h, w = mask.shape
         for k in np.flatnonzero(has_unknown[1:]) + 1:
             x, y, bw, bh = (int(st[k, i]) for i in (0, 1, 2, 3))
+            x, y = x + bx, y + by
             pad = max(bw, bh) // 4 + 8
             box = (slice(max(y - pad, 0), min(y + bh + pad, h)),
                    slice(max(x - pad, 0), min(x + bw + pad, w)))
