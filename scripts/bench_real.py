@@ -19,7 +19,8 @@ and 2D keypoints triangulated over the four views, built without voxelmocap code
 * ``landmarks RUN``: the tracked landmarks of a ``voxelmocap track`` run against the reference:
   mean error, share within 100 mm (head top excluded: MediaPipe has no head top); ``--every N``
   also prints every N-th frame's error per landmark; ``--frame-offset N``: the run's frame F is
-  the demo's frame F + N (a ``scripts/make_guise.py --first-frame N+1`` guise).
+  the demo's frame F + N (a ``scripts/make_guise.py --first-frame N+1`` guise); ``--frame-step
+  K``: its frame F is the demo's frame (F − 1)·K + 1 (+ N; a ``make_guise.py --every K`` guise).
 * ``overlays RUN``: every camera's overlay of frames 1, 25, 50, 75 and 100 as PNGs
   (``--name``: the files' stem).
 * ``oracle-track RUN``: a diagnostic: ``track`` with MediaPipe's masks as the silhouettes of
@@ -262,7 +263,7 @@ def landmarks(args) -> None:
     per = {k: [] for k in LANDMARK_MAP}
     rows = []
     for i, f in enumerate(result.frames):
-        truth = ref["points_mm"][int(f) - 1 + args.frame_offset]
+        truth = ref["points_mm"][(int(f) - 1) * args.frame_step + args.frame_offset]
         row = {}
         for j, name in enumerate(LANDMARK_NAMES):
             if name not in LANDMARK_MAP:
@@ -519,6 +520,9 @@ def main(argv=None) -> int:
             p.add_argument("--frame-offset", type=int, default=0, metavar="N",
                            help="the run's frame F is the reference's frame F + N (a guise "
                                 "of scripts/make_guise.py --first-frame N+1)")
+            p.add_argument("--frame-step", type=int, default=1, metavar="K",
+                           help="the run's frame F is the reference's frame (F - 1)·K + 1 (+ "
+                                "the offset): a guise of make_guise.py --every K")
         if name == "oracle-track":
             p.add_argument("--seed", type=int, default=0)
             p.add_argument("--cues", help="track --cues (default: the config's)")

@@ -13,6 +13,9 @@ mean"):
   ``s`` (a calibration wider than the videos, like the demo's 1088 for 1080 columns, stays so).
 * ``--first-frame K``: the videos start at original frame K (frame F of the guise is frame
   F + K − 1 of the original; score with ``bench_real.py landmarks --frame-offset K-1``).
+* ``--every K``: every K-th frame from the first kept, at the original rate / K (another frame
+  rate: frame F of the guise is frame (F − 1)·K + first of the original; score with
+  ``bench_real.py landmarks --frame-offset first-1 --frame-step K``).
 * ``--drop-camera NAME`` (repeatable): the camera's video and its calibration left out.
 * ``--calibration-format toml|qca``: the calibration written as a Pose2Sim TOML (translations in
   metres, as Pose2Sim writes them) or a Qualisys ``.qca.txt`` (QTM's conventions as
@@ -20,9 +23,10 @@ mean"):
   original's format (the file copied as is when nothing else changes the cameras).
 
 Videos are written as lossless numbered PNG folders (``videos/<camera>/frame_000001.png`` …)
-whenever their pixels change (``--scale`` other than 1, ``--first-frame`` other than 1), copied
-otherwise. ``Config.toml`` is copied, with ``[project] frame_rate = 'auto'`` replaced by the
-original videos' rate when the videos become image folders (which state none). The copy is built
+whenever their pixels change (``--scale`` other than 1, ``--first-frame`` or ``--every`` other
+than 1), copied otherwise. ``Config.toml`` is copied, with ``[project] frame_rate = 'auto'``
+replaced by the original videos' rate (divided by ``--every``) when the videos become image
+folders (which state none). The copy is built
 in a temporary folder beside ``OUT`` and renamed when done (``OUT`` must not exist).
 
     python scripts/make_guise.py /work/p2s/x/Pose2Sim/Demo_SinglePerson /tmp/guise_half \\
@@ -116,8 +120,9 @@ def binning_factor(config: Path) -> float:
                  .get("binning_factor", 1))
 
 
-def _state_frame_rate(config: str, videos: dict, drop) -> str:
-    """``config`` with ``[project] frame_rate = 'auto'`` replaced by the videos' frame rate.
+def _state_frame_rate(config: str, videos: dict, drop, every: int = 1) -> str:
+    """``config`` with ``[project] frame_rate = 'auto'`` replaced by the videos' frame rate
+    (divided by ``every``, the guise keeping every ``every``-th frame).
 
     Numbered images state no frame rate (voxelmocap would assume 30 Hz, Pose2Sim 60): a user
     filming into image folders states it in Config.toml, and so does the guise."""
@@ -125,22 +130,26 @@ def _state_frame_rate(config: str, videos: dict, drop) -> str:
              if n not in drop}
     if len(rates) != 1 or not next(iter(rates)) > 0:
         return config                                   # no single stated rate to keep
-    rate = next(iter(rates))
+    rate = next(iter(rates)) / every
     new, n = re.subn(r"^(\s*frame_rate\s*=\s*)(['\"])auto\2", rf"\g<1>{rate:g}", config,
                      count=1, flags=re.M)
     if n:
-        print(f"Config.toml: frame_rate = {rate:g} (the original videos' rate)")
+        print(f"Config.toml: frame_rate = {rate:g} (the original videos' rate"
+              + (f" / {every})" if every > 1 else ")"))
     return new
 
 
-def _write_video(src: Path, dest: Path, scale: float, first: int) -> tuple[int, int, int, int]:
-    """``src`` from frame ``first`` (1-based), resized, as a PNG folder; ``(w, h, w', h')``."""
+def _write_video(src: Path, dest: Path, scale: float, first: int, every: int = 1
+                 ) -> tuple[int, int, int, int]:
+    """``src`` from frame ``first`` (1-based), every ``every``-th frame, resized, as a PNG
+    folder; ``(w, h, w', h')``."""
     stream = VideoStream(src, gray=False)
     if first > stream.n_frames:
         raise SystemExit(f"{src}: --first-frame {first} but the video has {stream.n_frames} frames")
     dest.mkdir(parents=True)
     size = new = None
-    for k, (_, image) in enumerate(stream.read(range(first - 1, stream.n_frames)), start=1):
+    for k, (_, image) in enumerate(stream.read(range(first - 1, stream.n_frames, every)),
+                                   start=1):
         h, w = image.shape[:2]
         size, new = (w, h), scaled_size((w, h), scale)
         if new != size:
@@ -152,7 +161,7 @@ def _write_video(src: Path, dest: Path, scale: float, first: int) -> tuple[int, 
     return (*size, *new)
 
 
-def _build(project, tmp, calib_path, rig, videos, *, scale, first_frame, drop, fmt,
+def _build(project, tmp, calib_path, rig, videos, *, scale, first_frame, every, drop, fmt,
            original_format, binning) -> None:
     """The guise's files, in ``tmp``."""
     (tmp / "calibration").mkdir(parents=True)
@@ -161,18 +170,19 @@ def _build(project, tmp, calib_path, rig, videos, *, scale, first_frame, drop, f
     for name, src in videos.items():
         if name in drop:
             continue
-        if scale == 1 and first_frame == 1:
+        if scale == 1 and first_frame == 1 and every == 1:
             dest = tmp / "videos" / src.name
             (shutil.copytree if src.is_dir() else shutil.copy2)(src, dest)
             factors[name] = (1.0, 1.0)
             continue
-        w, h, w2, h2 = _write_video(src, tmp / "videos" / name, scale, first_frame)
+        w, h, w2, h2 = _write_video(src, tmp / "videos" / name, scale, first_frame, every)
         factors[name] = (w2 / w, h2 / h)
-        print(f"{name}: {w}x{h} -> {w2}x{h2}, frames {first_frame}.. of the original")
+        print(f"{name}: {w}x{h} -> {w2}x{h2}, frames {first_frame}.. of the original"
+              + (f", every {every}th" if every > 1 else ""))
     if (project / "Config.toml").is_file():
         text = (project / "Config.toml").read_text()
         if any(p.is_dir() for p in (tmp / "videos").iterdir()):
-            text = _state_frame_rate(text, videos, drop)
+            text = _state_frame_rate(text, videos, drop, every)
         (tmp / "Config.toml").write_text(text)
     cameras = [scale_camera(c, factors.get(c.name, (scale, scale))) for c in rig
                if c.name not in drop]
@@ -187,7 +197,7 @@ def _build(project, tmp, calib_path, rig, videos, *, scale, first_frame, drop, f
 
 
 def make_guise(project: Path, out: Path, *, scale: float = 1.0, first_frame: int = 1,
-               drop: tuple[str, ...] = (), calibration: str | None = None) -> Path:
+               every: int = 1, drop: tuple[str, ...] = (), calibration: str | None = None) -> Path:
     """Write the guise of ``project`` to ``out`` (see the module docstring); returns ``out``."""
     project, out = Path(project), Path(out)
     if out.exists():
@@ -196,6 +206,8 @@ def make_guise(project: Path, out: Path, *, scale: float = 1.0, first_frame: int
         raise SystemExit(f"--scale must be a positive number, got {scale}")
     if first_frame < 1:
         raise SystemExit(f"--first-frame must be >= 1, got {first_frame}")
+    if every < 1:
+        raise SystemExit(f"--every must be >= 1, got {every}")
     calib_path = find_calibration(project / "calibration")
     original_format = "qca" if calibration_format(calib_path) == "qualisys" else "toml"
     fmt = calibration or original_format
@@ -211,14 +223,14 @@ def make_guise(project: Path, out: Path, *, scale: float = 1.0, first_frame: int
         shutil.rmtree(tmp)
     try:
         _build(project, tmp, calib_path, rig, videos, scale=scale, first_frame=first_frame,
-               drop=drop, fmt=fmt, original_format=original_format, binning=binning)
+               every=every, drop=drop, fmt=fmt, original_format=original_format, binning=binning)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     tmp.rename(out)
     kept = [c.name for c in rig if c.name not in drop]
     print(f"{out}: cameras {', '.join(kept)}, scale {scale:g}, first frame {first_frame}, "
-          f"calibration {fmt}")
+          f"every {every} frame(s), calibration {fmt}")
     return out
 
 
@@ -230,13 +242,15 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", type=float, default=1.0, help="resize the videos by S")
     ap.add_argument("--first-frame", type=int, default=1, metavar="K",
                     help="start the videos at original frame K (1-based)")
+    ap.add_argument("--every", type=int, default=1, metavar="K",
+                    help="keep every K-th frame (the frame rate divided by K)")
     ap.add_argument("--drop-camera", action="append", default=[], metavar="NAME",
                     help="leave a camera out (repeatable)")
     ap.add_argument("--calibration-format", choices=("toml", "qca"),
                     help="the calibration's format (default: the original's)")
     args = ap.parse_args(argv)
     make_guise(args.project, args.out, scale=args.scale, first_frame=args.first_frame,
-               drop=tuple(args.drop_camera), calibration=args.calibration_format)
+               every=args.every, drop=tuple(args.drop_camera), calibration=args.calibration_format)
     return 0
 
 

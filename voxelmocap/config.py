@@ -309,11 +309,13 @@ class FilterConfig(Section):
         0.4, "`elbow`: the shoulder-twist noise while the elbow is singular (β̂; >= 0)", unit="rad",
         checked_by=_ELBOW)
     translation_std_mm: float = setting(25.0, "per-frame propagation noise of the root position "
-                                        "at 60 Hz", unit="mm", gt=0)
+                                        "at 60 Hz (scaled by 60 / the frame rate)", unit="mm",
+                                        gt=0)
     rotation_std_rad: float = setting(0.06, "per-frame propagation noise of the root rotation, "
-                                      "waist and neck at 60 Hz", unit="rad", gt=0)
-    joint_std_rad: float = setting(0.1, "per-frame propagation noise of the limb joints at 60 Hz",
-                                   unit="rad", gt=0)
+                                      "waist and neck at 60 Hz (scaled by 60 / the frame rate)",
+                                      unit="rad", gt=0)
+    joint_std_rad: float = setting(0.1, "per-frame propagation noise of the limb joints at 60 Hz "
+                                   "(scaled by 60 / the frame rate)", unit="rad", gt=0)
     search: str = setting("hierarchical", "`joint`: every layer searches all 27 dimensions; "
                           "`hierarchical`: trunk first, then each limb", choices=("hierarchical", "joint"))
     trunk_layers: int | None = setting(None, "hierarchical search: layers of the root-and-trunk "

@@ -43,6 +43,30 @@ def test_noise_profile_follows_its_rule_name_by_name():
     assert sum(v == 0.21 for v in expected) == 16          # 4 per limb
 
 
+@pytest.mark.parametrize("rate", [30.0, 25.0, 120.0])
+def test_the_noise_reaches_as_far_as_the_body_moves_between_frames_at_any_rate(rate):
+    # a limb turning at a constant speed moves 60/rate times as far between two frames as at
+    # 60 Hz, the rate the settings are stated at: the noise keeps that proportion
+    from voxelmocap.pose.filter_setup import REFERENCE_RATE
+    from voxelmocap.pose.multistart import MultiStart
+    from voxelmocap.pose.tracker import BodyTracker
+
+    speed = 3.0                                             # rad/s
+    step_60, step = speed / REFERENCE_RATE, speed / rate
+    at_60 = noise_profile(MODEL, SMALL)
+    at_rate = noise_profile(MODEL, SMALL, rate)
+    np.testing.assert_allclose(at_rate / step, at_60 / step_60, rtol=1e-12)
+    np.testing.assert_array_equal(noise_profile(MODEL, SMALL, REFERENCE_RATE), at_60)
+    tracker = BodyTracker(MODEL, SMALL, seed=0, frame_rate=rate)
+    np.testing.assert_array_equal(tracker.noise_std, at_rate)
+    np.testing.assert_array_equal(tracker.filter.noise_std, at_rate)
+    starts = MultiStart(MODEL, SMALL, 0, np.zeros((2, 27)), 3, frame_rate=rate)
+    for t in starts.trackers:
+        np.testing.assert_array_equal(t.noise_std, at_rate)
+    with pytest.raises(ValueError, match="frame_rate"):
+        noise_profile(MODEL, SMALL, 0.0)
+
+
 def test_dynamics_built_by_name():
     for name, cls in [("random_walk", RandomWalk), ("velocity", VelocityModel),
                       ("elbow", TwoStateElbow)]:

@@ -24,7 +24,7 @@ CONFIG = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles"
 
 META = {"config": config_to_toml(CONFIG), "seed": 4, "subject": "S1", "action": "Walking",
         "trial": 1, "cameras": "C1,C2,C3", "frames_requested": "1,2,3,4,5", "person_masks": "",
-        "plate_from": ""}
+        "plate_from": "", "frame_rate": 60.0}
 
 
 def _result(n=3, *, checkpoint=True, observed=None, drop=(), **changed):
@@ -71,7 +71,8 @@ def test_another_runs_result_is_refused(tmp_path, key):
     """Every attribute of RESUME_KEYS must match; the message names the one that differs."""
     other = {"config": config_to_toml(with_overrides(CONFIG, **{"filter.layers": 3})),
              "seed": 5, "subject": "S2", "action": "Jog", "trial": 2, "cameras": "C1,C2",
-             "frames_requested": "1,2,3", "person_masks": "/masks", "plate_from": "/run/r.h5"}
+             "frames_requested": "1,2,3", "person_masks": "/masks", "plate_from": "/run/r.h5",
+             "frame_rate": 30.0}   # the filter's noise is scaled to the frame rate
     assert set(other) == set(RESUME_KEYS)
     path = tmp_path / "r.h5"
     write_result(path, _result(**{key: other[key]}))

@@ -117,11 +117,26 @@ def test_a_camera_left_out_and_a_later_first_frame(guise, project, tmp_path):
     assert [c.name for c in seq.rig] == ["cam01", "cam03"] and seq.frame_rate == 50.0
 
 
+def test_another_frame_rate_keeps_every_kth_frame(guise, project, tmp_path):
+    out = guise.make_guise(project, tmp_path / "g", first_frame=2, every=2)
+    videos = find_videos(out / "videos")
+    for name in NAMES:
+        original = _frames(find_videos(project / "videos")[name])
+        frames = _frames(videos[name])
+        assert len(frames) == 2                      # guise frame F is original frame 2F
+        for o, g in zip(original[1::2], frames, strict=True):
+            np.testing.assert_array_equal(g, o)
+    assert "frame_rate = 25 # fps" in (out / "Config.toml").read_text()
+    assert open_sequence(out).frame_rate == 25.0
+
+
 def test_bad_requests_are_refused(guise, project, tmp_path):
     with pytest.raises(SystemExit, match="no such camera"):
         guise.make_guise(project, tmp_path / "a", drop=("cam09",))
     with pytest.raises(SystemExit, match="has 4 frames"):
         guise.make_guise(project, tmp_path / "b", first_frame=5)
+    with pytest.raises(SystemExit, match="--every must be >= 1"):
+        guise.make_guise(project, tmp_path / "d", every=0)
     (tmp_path / "c").mkdir()
     with pytest.raises(SystemExit, match="exists"):
         guise.make_guise(project, tmp_path / "c")

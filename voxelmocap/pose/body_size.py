@@ -465,7 +465,7 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
                               [records[i].state for i in pick], tracker.model.dimensions,
                               variances=tracker.variances,
                               coverage=START_COVERAGE if coverage is None else coverage)
-    new = BodyTracker(BodyModel(fit.dimensions), config, seed=seed)
+    new = BodyTracker(BodyModel(fit.dimensions), config, seed=seed, frame_rate=tracker.frame_rate)
     new.start("fitted body", fit.states[0])
     out, checkpoints = [], []
     for obs, rec in zip(observations, records, strict=True):

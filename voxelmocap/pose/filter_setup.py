@@ -12,15 +12,23 @@ import numpy as np
 
 from ..config import FilterConfig, TrackConfig
 
-__all__ = ["TRUNK_ANGLES", "annealing_layers", "build_dynamics", "build_filter", "noise_profile",
-           "searches_hierarchically"]
+__all__ = ["REFERENCE_RATE", "TRUNK_ANGLES", "annealing_layers", "build_dynamics", "build_filter",
+           "noise_profile", "searches_hierarchically"]
+
+#: The frame rate (Hz) the ``[filter]`` noise settings are stated at.
+REFERENCE_RATE = 60.0
 
 #: Trunk angles that get the root rotation's noise, not the limbs' (see :func:`noise_profile`).
 TRUNK_ANGLES = ("waist_flex", "waist_side", "waist_twist", "neck_flex", "neck_side")
 
 
-def noise_profile(model, config: TrackConfig) -> np.ndarray:
+def noise_profile(model, config: TrackConfig, frame_rate: float = REFERENCE_RATE) -> np.ndarray:
     """(27,) per-frame propagation noise (mm, rad): translation, root rotation and joint groups.
+
+    The settings are per frame at :data:`REFERENCE_RATE`; at another ``frame_rate`` (Hz) they
+    scale by ``REFERENCE_RATE / frame_rate``: the noise must reach as far as the body moves
+    between two frames, and a smooth motion moves in proportion to the time between them (at
+    30 Hz twice as far as at 60), so a recording at another rate is searched alike.
 
     The root, waist and neck angles get ``rotation_std_rad``; shoulders, elbows, hips and knees
     ``joint_std_rad``. The trunk moves as slowly as the root, and the pelvis orientation is nearly
@@ -39,6 +47,10 @@ def noise_profile(model, config: TrackConfig) -> np.ndarray:
     std[3:6] = fc.rotation_std_rad
     names = list(model.state_names)
     std[[names.index(n) for n in TRUNK_ANGLES]] = fc.rotation_std_rad
+    if frame_rate != REFERENCE_RATE:
+        if not (np.isfinite(frame_rate) and frame_rate > 0):
+            raise ValueError(f"frame_rate must be a finite number > 0, got {frame_rate!r}")
+        std *= REFERENCE_RATE / float(frame_rate)
     return std
 
 

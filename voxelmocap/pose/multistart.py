@@ -38,15 +38,17 @@ class MultiStart:
         Frames to track before choosing.
     noise_std : (27,) array_like, optional
         As for :class:`BodyTracker`.
+    frame_rate : float
+        As for :class:`BodyTracker` (Hz, default 60).
     """
 
     def __init__(self, model, config: TrackConfig, seed: int, states, frames: int, *,
-                 noise_std=None):
+                 noise_std=None, frame_rate: float = 60.0):
         self.frames = int(frames)
         self.trackers: list[BodyTracker] = []
         for k, state in enumerate(np.atleast_2d(np.asarray(states, dtype=float))):
             tracker = BodyTracker(model, config, seed=np.random.default_rng([int(seed), k]),
-                                  noise_std=noise_std)
+                                  noise_std=noise_std, frame_rate=frame_rate)
             tracker.start("multi-start", state)
             self.trackers.append(tracker)
         self.records: list[list[FrameRecord]] = [[] for _ in self.trackers]

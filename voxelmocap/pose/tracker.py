@@ -45,7 +45,7 @@ import numpy as np
 
 from ..config import TrackConfig
 from ..errors import InputError
-from .filter_setup import build_filter, noise_profile
+from .filter_setup import REFERENCE_RATE, build_filter, noise_profile
 from .records import FrameRecord, Observer, absent_record
 from .starts import GROUND_TRUTH_START, initial_state_from_voxels
 
@@ -66,6 +66,9 @@ class BodyTracker:
     noise_std : (27,) array_like, optional
         Propagation noise per state dimension (mm, rad), instead of :func:`noise_profile` of the
         config (for studies of other profiles).
+    frame_rate : float, optional
+        The frames' rate (Hz): the config's noise, stated at 60 Hz, is scaled to it
+        (:func:`~voxelmocap.pose.filter_setup.noise_profile`). Default 60.
     observers : iterable of callable, optional
         ``observer(record, tracker)`` called after every :meth:`step`.
 
@@ -82,9 +85,11 @@ class BodyTracker:
     """
 
     def __init__(self, model, config: TrackConfig | None = None, *, seed=0, noise_std=None,
-                 observers: Iterable[Observer] = ()):
+                 frame_rate: float = REFERENCE_RATE, observers: Iterable[Observer] = ()):
         self.model = model
         self.config = config or TrackConfig()
+        #: the frames' rate (Hz) the noise is scaled to
+        self.frame_rate = float(frame_rate)
         self.variances = self.config.likelihood.variances
         #: keyword arguments of the voxel likelihood, shared with the voxel cue: ``variances``
         #: and ``coverage`` (``[likelihood]``; the start is scored with coverage 0, see
@@ -92,7 +97,7 @@ class BodyTracker:
         self.voxel_options = {"variances": self.variances,
                               "coverage": self.config.likelihood.coverage}
         if noise_std is None:
-            self.noise_std = noise_profile(model, self.config)
+            self.noise_std = noise_profile(model, self.config, self.frame_rate)
         else:
             self.noise_std = np.asarray(noise_std, dtype=float)
             if self.noise_std.shape != (model.n_dims,) or not np.all(

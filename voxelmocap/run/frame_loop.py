@@ -108,7 +108,7 @@ class PassRun:
                              body_height_mm=float(self.model.dimensions.height),
                              body_dimensions=dimensions_json(self.model))
         self.tracker = None if self.size_from_voxels else BodyTracker(
-            self.model, self.config, seed=request.seed)
+            self.model, self.config, seed=request.seed, frame_rate=fps)
         self.init_method = None
         self.starts = None              # a MultiStart while its first frames run
         self.start_observations = []    # its frames' measurements, when the body is fitted
@@ -197,7 +197,8 @@ class PassRun:
                 self.meta["body_dimensions"] = str(attrs["body_dimensions"])
             self.meta["body_model"] = self.model_source = str(attrs["body_model"])
             self.meta["body_height_mm"] = height
-            self.tracker = BodyTracker(self.model, self.config, seed=self.request.seed)
+            self.tracker = BodyTracker(self.model, self.config, seed=self.request.seed,
+                                   frame_rate=self.fps)
         self.tracker.set_state(previous.checkpoint)
         self.init_method = str(previous.attrs.get("init_method"))
         for key, name in (("frames", "frames"), ("endpoints", "endpoints"),
@@ -260,7 +261,8 @@ class PassRun:
         self.meta["body_model"] = self.model_source
         self.meta["body_height_mm"] = float(self.model.dimensions.height)
         self.say(f"body: {self.model_source}")
-        self.tracker = BodyTracker(self.model, self.config, seed=self.request.seed)
+        self.tracker = BodyTracker(self.model, self.config, seed=self.request.seed,
+                                   frame_rate=self.fps)
 
     def _continue_start(self, measurement, frame_number) -> None:
         """Start from the previous pass's pose at this frame (its arms searched again)."""
@@ -291,7 +293,8 @@ class PassRun:
             measurement, ground_truth_landmarks(self.gt, frame_number), frame=frame_number)
         n_multi = self.config.init.multistart_frames
         if n_multi > 0 and np.ndim(states) == 2 and len(states) > 1:
-            self.starts = MultiStart(self.model, self.config, self.request.seed, states, n_multi)
+            self.starts = MultiStart(self.model, self.config, self.request.seed, states, n_multi,
+                                     frame_rate=self.fps)
         else:
             self.tracker.start(self.init_method, states)
         self.say(f"initialised from {self.init_method}")

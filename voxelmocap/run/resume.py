@@ -14,7 +14,7 @@ __all__ = ["RESUME_KEYS", "previous_run", "tracking_config"]
 
 #: Attributes a resumed run must share with the file it continues.
 RESUME_KEYS = ("config", "seed", "subject", "action", "trial", "cameras", "frames_requested",
-               "person_masks", "plate_from")
+               "person_masks", "plate_from", "frame_rate")
 
 
 def previous_run(writer, meta: dict, resume: bool, overwrite: bool):
