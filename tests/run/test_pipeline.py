@@ -129,11 +129,21 @@ def test_without_background_videos_learns_the_plate_or_uses_mog2(walk_dataset, t
     assert any("using MOG2" in m for m in messages)
 
 
-def test_frame_rate_comes_from_the_data(tmp_path):
-    """A 30 fps sequence: the BVH plays at 30 fps and the result file says 30 (not 60)."""
+def test_frame_rate_comes_from_the_data(tmp_path, monkeypatch):
+    """A 30 fps sequence: the BVH plays at 30 fps, the result file says 30 (not 60) and the
+    tracker's noise is scaled to 30 Hz."""
     from voxelmocap.io.bvh import read_bvh
+    from voxelmocap.run import frame_loop
     from voxelmocap.synth import generate
 
+    rates = []
+
+    class Recording(frame_loop.BodyTracker):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            rates.append(self.frame_rate)
+
+    monkeypatch.setattr(frame_loop, "BodyTracker", Recording)
     data = generate(tmp_path / "data", motion="walk", frames=2, cameras=["C1", "C2", "BW1"],
                     fps=30.0, progress=False, background_frames=10, seed=1)
     outcome = track_sequence(data, "S1", "Walking_1", tmp_path / "run",
@@ -143,6 +153,7 @@ def test_frame_rate_comes_from_the_data(tmp_path):
     assert "Frame Time: 0.03333333" in outcome.bvh_path.read_text()
     assert read_bvh(outcome.bvh_path).fps == pytest.approx(30.0)
     assert read_result(outcome.result_path).attrs["frame_rate"] == 30.0
+    assert rates and set(rates) == {30.0}
     # an explicit rate wins; an impossible one is refused before anything is written
     again = track_sequence(data, "S1", "Walking_1", tmp_path / "run25", frames="1:1", fps=25.0,
                            config=with_overrides(SMALL, **{"filter.layers": 1,
@@ -153,6 +164,21 @@ def test_frame_rate_comes_from_the_data(tmp_path):
         track_sequence(data, "S1", "Walking_1", tmp_path / "run0", fps=0.0, progress=False,
                        log=lambda *_: None)
     assert not (tmp_path / "run0").exists()
+
+
+def test_a_working_size_measures_shrunk_images_through_the_whole_run(walk_dataset, tmp_path):
+    """``[measurement] max_image_side``: the run says which cameras it shrinks and tracks on
+    them; the same frames measured as filmed carve nearly the same person (the dump test in
+    tests/io/test_working_size.py compares the carvings)."""
+    lines = []
+    config = with_overrides(SMALL, **{"measurement.max_image_side": 320, "filter.layers": 1,
+                                      "filter.particles": 40})
+    outcome = track_sequence(walk_dataset, "S1", "Walking_1", tmp_path / "run", frames="1:2",
+                             config=config, progress=False, log=lines.append)
+    assert any("images measured at most 320 px a side" in line and "640x480 → 320x240" in line
+               for line in lines)
+    result = read_result(outcome.result_path)
+    assert result.attrs["complete"] and len(result.frames) == 2
 
 
 def test_frame_rate_of_image_folders_is_humaneva_i(tmp_path):
