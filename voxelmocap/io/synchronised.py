@@ -14,10 +14,27 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["FramesByCamera", "SynchronisedVideos"]
+__all__ = ["FrameViews", "FramesByCamera", "SynchronisedVideos"]
 
 
-class SynchronisedVideos:
+class FrameViews:
+    """What a sequence offers on top of its ``frames()`` and ``rig`` (a mix-in, shared by
+    :class:`SynchronisedVideos` and :class:`voxelmocap.io.working_size.AtMostSide`)."""
+
+    def by_camera(self, frames: Iterable[int]) -> FramesByCamera:
+        """Sampled frames as a mapping camera → (F, H, W[, C]) decoded when a camera is asked for."""
+        return FramesByCamera(self, frames)
+
+    def read_frame(self, frame: int) -> dict[str, np.ndarray]:
+        """The images of one synchronised frame ``{camera: image}``."""
+        return next(self.frames([frame]))[1]
+
+    def camera(self, name: str):
+        """One camera of the rig."""
+        return self.rig[name]
+
+
+class SynchronisedVideos(FrameViews):
     """Frame access over synchronised camera videos (a mix-in).
 
     A subclass provides ``camera_names`` (list of str), ``starts`` (dict camera → 1-based video
@@ -112,18 +129,6 @@ class SynchronisedVideos:
                                  f"frame size {image.shape[1]}x{image.shape[0]} differs from "
                                  f"the calibration's {size[0]}x{size[1]}")
             yield f, image
-
-    def by_camera(self, frames: Iterable[int]) -> FramesByCamera:
-        """Sampled frames as a mapping camera → (F, H, W[, C]) decoded when a camera is asked for."""
-        return FramesByCamera(self, frames)
-
-    def read_frame(self, frame: int) -> dict[str, np.ndarray]:
-        """The images of one synchronised frame ``{camera: image}``."""
-        return next(self.frames([frame]))[1]
-
-    def camera(self, name: str):
-        """One camera of the rig."""
-        return self.rig[name]
 
 
 class FramesByCamera(Mapping):

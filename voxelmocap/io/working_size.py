@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from ..camera import Rig
-from .synchronised import FramesByCamera
+from .synchronised import FrameViews
 
 __all__ = ["AtMostSide", "at_most_side", "shrunk_size"]
 
@@ -40,11 +40,12 @@ def at_most_side(seq, max_side: int | None):
     return AtMostSide(seq, int(max_side))
 
 
-class AtMostSide:
+class AtMostSide(FrameViews):
     """A sequence whose images (and cameras) are shrunk to at most ``max_side`` pixels a side.
 
     Everything but the images and the cameras is the wrapped sequence's (its name, frames,
-    ground truth, notes …).
+    ground truth, notes …); ``by_camera``, ``read_frame`` and ``camera`` come from
+    :class:`~voxelmocap.io.synchronised.FrameViews` over the shrunk ``frames`` and ``rig``.
 
     Parameters
     ----------
@@ -91,18 +92,6 @@ class AtMostSide:
         """As :meth:`SynchronisedVideos.camera_frames`, at the working size."""
         for f, image in self.native.camera_frames(camera, frames):
             yield f, self.shrink(camera, image)
-
-    def by_camera(self, frames: Iterable[int]) -> FramesByCamera:
-        """As :meth:`SynchronisedVideos.by_camera`, at the working size."""
-        return FramesByCamera(self, frames)
-
-    def read_frame(self, frame: int) -> dict[str, np.ndarray]:
-        """The images of one synchronised frame at the working size."""
-        return next(self.frames([frame]))[1]
-
-    def camera(self, name: str):
-        """One camera of the working rig."""
-        return self.rig[name]
 
     def background_sets(self, camera: str, *, max_frames: int | None = None
                         ) -> list[list[np.ndarray]]:
