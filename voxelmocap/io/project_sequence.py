@@ -147,10 +147,15 @@ class ProjectSequence(SynchronisedVideos):
         """Decode each camera's first frame and reconcile its size with the calibration's."""
         _ = self.rig
 
+    #: True when nothing stated the frame rate and :data:`DEFAULT_FRAME_RATE` was assumed (set
+    #: by :attr:`frame_rate`): the tracker then keeps its per-frame noise as configured
+    frame_rate_assumed = False
+
     @cached_property
     def frame_rate(self) -> float:
         """Frames per second: Pose2Sim's ``[project] frame_rate`` when it is a number (as in
-        Pose2Sim, whatever the videos state), else the videos' (they must agree), else 30 Hz."""
+        Pose2Sim, whatever the videos state), else the videos' (they must agree), else 30 Hz
+        (:attr:`frame_rate_assumed`)."""
         rates = {cam: s.fps for cam, s in self._streams.items() if s.fps is not None}
         video_rate = None
         if rates:
@@ -176,6 +181,7 @@ class ProjectSequence(SynchronisedVideos):
         if video_rate is not None:
             return video_rate
         self.notes.append(f"no video states a frame rate: {DEFAULT_FRAME_RATE:g} Hz assumed")
+        self.frame_rate_assumed = True
         return DEFAULT_FRAME_RATE
 
     # ------------------------------------------------------------------ backgrounds

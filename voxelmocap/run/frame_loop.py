@@ -27,6 +27,7 @@ import numpy as np
 from ..config import config_to_toml
 from ..errors import InputError
 from ..logs import run_started
+from ..pose.filter_setup import REFERENCE_RATE
 from ..pose.multistart import MultiStart
 from ..pose.starts import ground_truth_landmarks
 from ..pose.tracker import BodyTracker
@@ -82,6 +83,10 @@ class PassRun:
         if not (np.isfinite(fps) and fps > 0):
             raise InputError("fps", f"the frame rate must be a finite number > 0, got {fps!r}")
         self.fps = fps
+        # The filter's noise follows the frame rate the data state; an assumed one (image
+        # folders stating none) would change the search on a guess: the noise stays per frame
+        self.noise_rate = (REFERENCE_RATE if request.fps is None
+                           and getattr(seq, "frame_rate_assumed", False) else fps)
         ex = self.config.export
         if ex.cutoff_hz is not None and ex.formats:  # refuse before tracking
             from ..smoothing import check_filter
@@ -108,7 +113,7 @@ class PassRun:
                              body_height_mm=float(self.model.dimensions.height),
                              body_dimensions=dimensions_json(self.model))
         self.tracker = None if self.size_from_voxels else BodyTracker(
-            self.model, self.config, seed=request.seed, frame_rate=fps)
+            self.model, self.config, seed=request.seed, frame_rate=self.noise_rate)
         self.init_method = None
         self.starts = None              # a MultiStart while its first frames run
         self.start_observations = []    # its frames' measurements, when the body is fitted
@@ -198,7 +203,7 @@ class PassRun:
             self.meta["body_model"] = self.model_source = str(attrs["body_model"])
             self.meta["body_height_mm"] = height
             self.tracker = BodyTracker(self.model, self.config, seed=self.request.seed,
-                                   frame_rate=self.fps)
+                                   frame_rate=self.noise_rate)
         self.tracker.set_state(previous.checkpoint)
         self.init_method = str(previous.attrs.get("init_method"))
         for key, name in (("frames", "frames"), ("endpoints", "endpoints"),
@@ -262,7 +267,7 @@ class PassRun:
         self.meta["body_height_mm"] = float(self.model.dimensions.height)
         self.say(f"body: {self.model_source}")
         self.tracker = BodyTracker(self.model, self.config, seed=self.request.seed,
-                                   frame_rate=self.fps)
+                                   frame_rate=self.noise_rate)
 
     def _continue_start(self, measurement, frame_number) -> None:
         """Start from the previous pass's pose at this frame (its arms searched again)."""
@@ -294,7 +299,7 @@ class PassRun:
         n_multi = self.config.init.multistart_frames
         if n_multi > 0 and np.ndim(states) == 2 and len(states) > 1:
             self.starts = MultiStart(self.model, self.config, self.request.seed, states, n_multi,
-                                     frame_rate=self.fps)
+                                     frame_rate=self.noise_rate)
         else:
             self.tracker.start(self.init_method, states)
         self.say(f"initialised from {self.init_method}")
