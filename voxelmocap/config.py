@@ -216,9 +216,14 @@ class MeasurementConfig(Section):
     max_image_side: int = setting(
         0, "images longer than this on a side are shrunk to it as they are decoded (area "
         "average), and their cameras with them, so a recording is measured at one resolution "
-        "however it was filmed (0 = as filmed)", unit="pixels", ge=0)
+        "however it was filmed (0 = as filmed)", unit="pixels", ge=0,
+        says="0 (as filmed) or at least 64 pixels, got {value}")
 
-    _rules: typing.ClassVar[tuple[Rule, ...]] = (together("grid_origin", "grid_shape"),)
+    _rules: typing.ClassVar[tuple[Rule, ...]] = (
+        together("grid_origin", "grid_shape"),
+        # a person a few dozen pixels tall carves nothing a body could be fitted to
+        also("max_image_side", lambda side: side == 0 or side >= 64),
+    )
 
 
 @dataclass(frozen=True)

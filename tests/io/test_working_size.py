@@ -115,3 +115,17 @@ def test_dump_measures_at_the_configured_size(walk_dataset, tmp_path):
     with VoxelDump(out) as dump:
         assert dump.masks(1).shape[1:] == (240, 320)
         assert all(c.size == (320, 240) for c in dump.cameras())
+
+
+@pytest.mark.parametrize("value", [-1, 1, 63])
+def test_a_working_size_too_small_to_hold_a_person_is_refused_in_one_line(value, tmp_path):
+    from voxelmocap.config import config_from_toml
+    from voxelmocap.errors import InputError
+
+    with pytest.raises(InputError) as info:
+        config_from_toml(f"[measurement]\nmax_image_side = {value}\n")
+    assert str(info.value).endswith(f"must be 0 (as filmed) or at least 64 pixels, got {value}")
+    assert "\n" not in str(info.value)
+    for ok in (0, 64, 960):
+        assert config_from_toml(f"[measurement]\nmax_image_side = {ok}\n") \
+            .measurement.max_image_side == ok
