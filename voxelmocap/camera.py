@@ -34,6 +34,7 @@ __all__ = [
     "Camera",
     "Rig",
     "fov_radius",
+    "shrunk_size",
     "sort_camera_names",
     "visible",
 ]
@@ -392,6 +393,16 @@ class Rig(Sequence):
 
 
 # ---------------------------------------------------------------------- visibility
+def shrunk_size(size, max_side: int, *, smallest: int = 1) -> tuple[int, int]:
+    """``(W', H')``: ``size = (W, H)`` scaled to at most ``max_side`` pixels on a side (never
+    enlarged), each side rounded and at least ``smallest``."""
+    w, h = (int(v) for v in size)
+    s = min(1.0, max_side / max(w, h))
+    if s == 1.0:
+        return w, h
+    return max(smallest, int(round(w * s))), max(smallest, int(round(h * s)))
+
+
 def fov_radius(camera) -> float:
     """Largest trusted undistorted normalised radius of ``camera`` (``FOV_MARGIN`` × the border's).
 

@@ -19,17 +19,10 @@ from collections.abc import Iterable, Iterator
 import cv2
 import numpy as np
 
-from ..camera import Rig
+from ..camera import Rig, shrunk_size
 from .synchronised import FrameViews
 
 __all__ = ["AtMostSide", "at_most_side", "shrunk_size"]
-
-
-def shrunk_size(size, max_side: int) -> tuple[int, int]:
-    """``(W', H')``: ``size = (W, H)`` scaled to at most ``max_side`` on a side (never enlarged)."""
-    w, h = (int(v) for v in size)
-    s = min(1.0, max_side / max(w, h))
-    return (w, h) if s == 1.0 else (max(1, int(round(w * s))), max(1, int(round(h * s))))
 
 
 def at_most_side(seq, max_side: int | None):

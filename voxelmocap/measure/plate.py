@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 from scipy import stats
 
+from ..camera import shrunk_size
 from ..config import SilhouetteConfig
 from ..errors import InputError
 from .threads import each
@@ -59,9 +60,7 @@ def downscale_camera(camera, size):
 
 def camera_at_most(camera, max_side: int):
     """:func:`downscale_camera` to at most ``max_side`` pixels on a side (not enlarged)."""
-    w, h = camera.size
-    s = min(1.0, max_side / max(w, h))
-    return downscale_camera(camera, (max(8, int(round(w * s))), max(8, int(round(h * s)))))
+    return downscale_camera(camera, shrunk_size(camera.size, max_side, smallest=8))
 
 
 def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import TrackConfig
+from .filter_setup import REFERENCE_RATE
 from .records import FrameRecord
 from .tracker import BodyTracker
 
@@ -43,7 +44,7 @@ class MultiStart:
     """
 
     def __init__(self, model, config: TrackConfig, seed: int, states, frames: int, *,
-                 noise_std=None, frame_rate: float = 60.0):
+                 noise_std=None, frame_rate: float = REFERENCE_RATE):
         self.frames = int(frames)
         self.trackers: list[BodyTracker] = []
         for k, state in enumerate(np.atleast_2d(np.asarray(states, dtype=float))):

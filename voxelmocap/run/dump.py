@@ -109,7 +109,7 @@ def dump_sequence(request: DumpRequest, *, progress: bool = True, log=None) -> D
     from ..frames import parse_frame_range
     from ..io.sequence import open_sequence
     from ..io.voxels import VoxelDumpWriter, write_ply
-    from ..io.working_size import at_most_side
+    from ..io.working_size import AtMostSide, at_most_side
 
     r = request
     config, masks, plate_body = r.config or TrackConfig(), r.masks, r.plate_body
@@ -125,9 +125,8 @@ def dump_sequence(request: DumpRequest, *, progress: bool = True, log=None) -> D
     seq = open_sequence(dataset_root, r.subject, r.sequence, trial=r.trial, cameras=r.cameras)
     for problem in seq.problems:  # cameras the data set has but this run cannot use
         emit(logger, log, problem, logging.WARNING)
-    native_rig = seq.rig
     seq = at_most_side(seq, config.measurement.max_image_side)
-    if seq.rig is not native_rig:
+    if isinstance(seq, AtMostSide):
         emit(logger, log, seq.summary)
     selected = parse_frame_range(frames, seq.frame_numbers) if frames else seq.frame_numbers
     if len(selected) == 0:

@@ -66,7 +66,7 @@ def track(request: TrackRequest) -> TrackOutcome:
     """Run a :class:`TrackRequest`: open, plan, run the passes (see the module docstring)."""
     from ..io.masks import PersonMasks
     from ..io.sequence import open_sequence
-    from ..io.working_size import at_most_side
+    from ..io.working_size import AtMostSide, at_most_side
     from .bodies import tracked_body
     from .frame_loop import PassRun
     from .plan import LOST_SHARE, MIN_BODY_FRAMES, plan_passes
@@ -77,13 +77,13 @@ def track(request: TrackRequest) -> TrackOutcome:
     seq = open_sequence(request.dataset_root, request.subject, request.sequence,
                         trial=request.trial, cameras=request.cameras,
                         calibration=request.calibration)
-    seq_rig = seq.rig  # reads the calibration and reconciles image sizes (notes below)
+    _ = seq.rig  # reads the calibration and reconciles image sizes (notes below)
     for problem in seq.problems:  # cameras the data set has but this run cannot use
         say(problem, logging.WARNING)
     for note in seq.notes:  # what was assumed in reading a project
         say(f"note: {note}")
     seq = at_most_side(seq, request.config.measurement.max_image_side)
-    if seq.rig is not seq_rig:
+    if isinstance(seq, AtMostSide):
         say(seq.summary)
     if request.masks is not None and request.plate_from is not None:
         raise InputError("--plate-from", "not with --masks (given masks need no plate)")
