@@ -94,8 +94,9 @@ def test_no_import_cycle_in_the_package():
 #: ``run`` loops over sequences and touches files; the command line is the top.
 #: ``docs/architecture.md`` draws the same order.
 LAYERS = (
-    ("foundations", ("errors", "logs", "joints", "frames", "smoothing", "camera", "grid",
-                     "evaluation", "body", "tracking")),
+    ("foundations", ("errors", "logs", "joints", "frames", "smoothing", "portable",
+                     "_portable_kernels", "cpu_paths", "camera", "grid", "evaluation", "body",
+                     "tracking")),
     ("io", ("io",)),
     ("config", ("config", "_config_schema")),
     ("synth", ("synth",)),

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from .errors import InputError
+from .portable import matmul
 
 __all__ = [
     "CAMERA_ORDER",
@@ -169,9 +170,9 @@ class Camera:
     def world_to_camera(self, points) -> np.ndarray:
         """Camera-frame coordinates ``(N, 3)`` (mm) of world points ``(N, 3)`` (mm)."""
         points = np.asarray(points, dtype=float).reshape(-1, 3)
-        # A contiguous copy of Rᵀ: matmul with the transposed view of a read-only array is ~8×
-        # slower (no BLAS fast path).
-        return points @ np.ascontiguousarray(self.R.T) + self.T
+        # Summed by NumPy in a fixed order, not by a BLAS kernel chosen by the CPU model: a
+        # voxel on a pixel's border must fall on the same side on every machine
+        return matmul(points, self.R.T) + self.T
 
     def distort(self, normalised) -> np.ndarray:
         """Apply the distortion to normalised pinhole coordinates ``(N, 2)`` → distorted ``(N, 2)``."""
@@ -260,7 +261,7 @@ class Camera:
         """
         norm = self.undistort_pixels(pixels)
         d_cam = np.concatenate([norm, np.ones((len(norm), 1))], axis=1)
-        d_world = d_cam @ self.R  # Rᵀ applied to each row
+        d_world = matmul(d_cam, self.R)  # Rᵀ applied to each row
         d_world /= np.linalg.norm(d_world, axis=1, keepdims=True)
         return np.broadcast_to(self.center, d_world.shape).copy(), d_world
 

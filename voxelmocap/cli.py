@@ -19,8 +19,13 @@ import logging
 import os
 import sys
 
-from . import __version__
-from .errors import VoxelmocapError
+from . import __version__, cpu_paths
+
+# Before anything imports NumPy: the same NumPy loops and OpenBLAS kernels on every machine
+# (a tracked result must not depend on the CPU; voxelmocap.cpu_paths)
+PINNED = cpu_paths.pin()
+
+from .errors import VoxelmocapError  # noqa: E402
 
 __all__ = ["main"]
 
@@ -108,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "no_progress", None) is False and not logs.progress_to_terminal():
         args.no_progress = True  # the bars would land in a file or a pipe as noise
         logger.debug("no progress bars: standard error is not a terminal")
+    if PINNED:
+        logger.debug("CPU paths pinned (voxelmocap.cpu_paths): %s",
+                     ", ".join(f"{k}={v}" for k, v in PINNED.items()))
     committed = True
     try:
         code = int(args.run(args) or 0)

@@ -20,10 +20,13 @@ then keeps the closed-form guess's value (0).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import InputError
+from ..portable import dot, matmul, norm
 from .kinematics import (
     HEAD_TOP,
     L_ANKLE,
@@ -50,14 +53,14 @@ __all__ = ["analytic_state", "fit_to_landmarks", "retarget"]
 
 
 def _unit(v):
-    n = np.linalg.norm(v)
+    n = norm(v)
     return v / n if n > 1e-12 else v * 0.0
 
 
 def _frame(x_dir, z_dir):
     """Rotation with columns (x, y, z): z along ``z_dir``, x as close to ``x_dir`` as possible."""
     z = _unit(z_dir)
-    x = _unit(x_dir - np.dot(x_dir, z) * z)
+    x = _unit(x_dir - dot(x_dir, z) * z)
     if not np.any(x):  # degenerate: pick any perpendicular
         x = _unit(np.cross(z, [0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.cross(z, [1.0, 0, 0]))
     y = np.cross(z, x)
@@ -66,7 +69,7 @@ def _frame(x_dir, z_dir):
 
 def _xyz_euler(m):
     """Angles (a, b, c) with m = Rx(a) Ry(b) Rz(c)."""
-    b = np.arcsin(np.clip(m[0, 2], -1.0, 1.0))
+    b = math.asin(min(max(float(m[0, 2]), -1.0), 1.0))
     a = np.arctan2(-m[1, 2], m[2, 2])
     c = np.arctan2(-m[0, 1], m[0, 0])
     return a, b, c
@@ -78,14 +81,14 @@ def _limb_angles(parent, top, mid, end, sign, hinge_sign, low, high):
     ``low``/``high`` are the (4,) ranges of (flex, abd, rot, hinge); of the two Euler solutions
     for the limb direction, the one closest to legal is taken.
     """
-    v = parent.T @ _unit(mid - top)                     # (−sin b, sin f cos b, −cos f cos b)
-    b0 = np.arcsin(np.clip(-v[0], -1.0, 1.0))
+    v = matmul(parent.T, _unit(mid - top))                   # (−sin b, sin f cos b, −cos f cos b)
+    b0 = math.asin(min(max(float(-v[0]), -1.0), 1.0))
     f0 = np.arctan2(v[1], -v[2])
     best, best_bad = None, np.inf
     for f, b in ((f0, b0), (f0 + np.pi, np.pi - b0), (f0 - np.pi, np.pi - b0),
                  (f0 + np.pi, -np.pi - b0), (f0 - np.pi, -np.pi - b0)):
-        q = (rotation_x(f) @ rotation_y(b)).T @ (parent.T @ _unit(end - mid))
-        hinge = np.arccos(np.clip(-q[2], -1.0, 1.0))
+        q = matmul(matmul(rotation_x(f), rotation_y(b)).T, matmul(parent.T, _unit(end - mid)))
+        hinge = math.acos(min(max(float(-q[2]), -1.0), 1.0))
         # elbow: q = (−sin r sin e, cos r sin e, ·); knee: q = (sin r sin k, −cos r sin k, ·)
         r = np.arctan2(-hinge_sign * q[0], hinge_sign * q[1]) if np.sin(hinge) > 1e-6 else 0.0
         cand = np.array([f, sign * b, -sign * r, hinge])
@@ -119,16 +122,16 @@ def analytic_state(model, landmarks) -> np.ndarray:
     up = pelvis - hip_mid if drop > 5.0 else thorax - pelvis
     root = _frame(lateral, up)
     # root = Rz(yaw) Rx(−pitch) Ry(roll): row 2 = (−cos a sin r, sin a, cos a cos r), a = −pitch
-    a = np.arcsin(np.clip(root[2, 1], -1.0, 1.0))
+    a = math.asin(min(max(float(root[2, 1]), -1.0), 1.0))
     x[3] = np.arctan2(-root[0, 1], root[1, 1])
     x[4] = -a
     x[5] = np.arctan2(-root[2, 0], root[2, 2])
     torso = _frame(lm[R_SHOULDER] - lm[L_SHOULDER], thorax - pelvis)
-    wa, wb, wc = _xyz_euler(root.T @ torso)
+    wa, wb, wc = _xyz_euler(matmul(root.T, torso))
     x[6:9] = (-wa, wb, wc)
-    v = torso.T @ _unit(lm[HEAD_TOP] - thorax)         # (sin b, −sin a cos b, cos a cos b)
+    v = matmul(torso.T, _unit(lm[HEAD_TOP] - thorax))       # (sin b, −sin a cos b, cos a cos b)
     x[9] = -np.arctan2(-v[1], v[2])
-    x[10] = np.arcsin(np.clip(v[0], -1.0, 1.0))
+    x[10] = math.asin(min(max(float(v[0]), -1.0), 1.0))
     lo, hi = model.low, model.high
     parents = {"torso": torso, "root": root}
     for idx, (a, b, c), sign, hinge_sign, parent in _LIMBS:
@@ -211,9 +214,10 @@ def retarget(model_from, model_to, states) -> np.ndarray:
     lo, hi = model_to.low, model_to.high
     out = x.copy()
     for p in range(len(x)):
-        root = rotation_z(x[p, 3]) @ rotation_x(-x[p, 4]) @ rotation_y(x[p, 5])
+        root = matmul(matmul(rotation_z(x[p, 3]), rotation_x(-x[p, 4])), rotation_y(x[p, 5]))
         parents = {"root": root,
-                   "torso": root @ rotation_x(-x[p, 6]) @ rotation_y(x[p, 7]) @ rotation_z(x[p, 8])}
+                   "torso": matmul(matmul(matmul(root, rotation_x(-x[p, 6])), rotation_y(x[p, 7])),
+                                   rotation_z(x[p, 8]))}
         for idx, (top, mid, end), sign, hinge_sign, parent in _LIMBS:
             idx = list(idx)
             angles = _limb_angles(parents[parent], new[p, top], old[p, mid], old[p, end], sign,

@@ -48,6 +48,7 @@ from scipy import ndimage
 
 from ..config import SilhouetteConfig
 from ..errors import InputError
+from ..portable import matmul
 from .carving import Carver
 from .plate import PlateBackground, _channels, camera_at_most, plate_from_frames
 from .threads import each
@@ -438,7 +439,7 @@ def _cover(person: np.ndarray, carver: Carver, c: int,
     # a voxel's footprint: its half-diagonal at the person's depth
     grid = carver.grid
     centre = grid.centre_of(np.argwhere(person).mean(axis=0))
-    depth = max(float((np.asarray(cam.R) @ centre + np.asarray(cam.T))[2]), grid.voxel_size)
+    depth = max(float((matmul(cam.R, centre) + np.asarray(cam.T))[2]), grid.voxel_size)
     r = int(np.ceil(max(cam.fc) * grid.voxel_size * 0.87 / depth)) + 2
     out = cv2.dilate(out, _disk(r))
     if seen is not None:

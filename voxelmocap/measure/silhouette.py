@@ -33,6 +33,7 @@ image; :func:`build_backgrounds` makes one model per camera. Images come from
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 
 import cv2
@@ -40,6 +41,7 @@ import numpy as np
 
 from ..config import SilhouetteConfig
 from ..errors import InputError
+from ..portable import exp, log
 
 __all__ = [
     "GaussianBackground",
@@ -112,8 +114,9 @@ class GaussianBackground:
         m = len(means)
         # Per-pixel constant of each component: log(1/M) − ½ Σ_c log(2π σ²).
         self._inv_var = (1.0 / self.variances).astype(np.float32)
-        self._const = (np.float32(-np.log(m))
-                       - 0.5 * np.log(2 * np.pi * self.variances).sum(axis=3)).astype(np.float32)
+        # (in float64 through voxelmocap.portable: NumPy's float32 log depends on the CPU)
+        self._const = (-math.log(m) - 0.5 * log(2 * np.pi * self.variances.astype(np.float64))
+                       .sum(axis=3)).astype(np.float32)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -220,12 +223,12 @@ class GaussianBackground:
         best = np.argmax(terms, axis=0)
         top = np.take_along_axis(terms, best[None], axis=0)[0]
         # log-sum-exp around the best component (stable for very negative log-likelihoods)
-        loglik = top + np.log(np.exp(terms - top[None]).sum(axis=0))
+        loglik = top + log(exp((terms - top[None]).astype(np.float64)).sum(axis=0))
         return loglik.astype(np.float32), best
 
     def threshold(self, risk: float = _DEFAULT.risk) -> float:
         """Log-likelihood threshold ``−log(256^C · risk)`` below which a pixel is foreground."""
-        return -(self.channels * np.log(256.0) + np.log(float(risk)))
+        return -(self.channels * math.log(256.0) + math.log(float(risk)))
 
     def foreground(self, image, *, risk: float = _DEFAULT.risk, shadows: bool = False,
                    shadow_brightness=_DEFAULT.shadow_brightness,

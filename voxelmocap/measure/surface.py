@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from ..portable import exp
+
 __all__ = ["smooth_surface", "smooth_surface_box", "smoothing_box", "surface_voxels"]
 
 
@@ -84,7 +86,7 @@ def smoothing_box(surface, sigma: float, *, truncate: float = 4.0) -> tuple[slic
 def _centre_weight(sigma: float, truncate: float) -> float:
     radius = int(truncate * sigma + 0.5)
     x = np.arange(-radius, radius + 1, dtype=float)
-    kernel = np.exp(-0.5 * (x / sigma) ** 2)
+    kernel = exp(-0.5 * (x / sigma) ** 2)
     return float(1.0 / kernel.sum())
 
 

@@ -37,6 +37,7 @@ import numpy as np
 from scipy.special import erf
 
 from ..joints import LANDMARK_NAMES
+from ..portable import exp, weighted_sum
 
 __all__ = ["DEFAULT_DELTA_MM", "LANDMARK_PARTS", "landmark_confidence", "landmark_spread",
            "landmark_support", "searched_spread", "within_probability"]
@@ -89,7 +90,7 @@ def landmark_spread(landmarks, weights) -> np.ndarray:
                          f"{w.shape}")
     mean = np.einsum("p,pmk->mk", w, x)
     d2 = np.sum((x - mean) ** 2, axis=2)
-    return np.sqrt(np.maximum(w @ d2, 0.0))
+    return np.sqrt(np.maximum(weighted_sum(w, d2), 0.0))
 
 
 def searched_spread(landmarks_of, estimate, searched) -> np.ndarray:
@@ -147,7 +148,7 @@ def within_probability(spread, *, delta: float = DEFAULT_DELTA_MM) -> np.ndarray
     with np.errstate(divide="ignore", invalid="ignore"):
         u = np.where(s > 0, delta * np.sqrt(3.0) / s, np.inf)
         p = erf(u / np.sqrt(2.0)) - np.sqrt(2.0 / np.pi) * np.where(
-            np.isfinite(u), u * np.exp(-0.5 * u * u), 0.0)
+            np.isfinite(u), u * exp(-0.5 * u * u), 0.0)
     return np.where(np.isnan(s), np.nan, np.clip(p, 0.0, 1.0))
 
 

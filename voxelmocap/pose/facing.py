@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..body.state import STATE_INDEX
+from ..portable import matmul
 
 __all__ = ["FOOT_BOX_MM", "facing_direction", "facing_evidence", "foot_evidence", "travel_evidence",
            "turned_round"]
@@ -175,8 +176,8 @@ def foot_evidence(observation, model, states, *, box=None) -> np.ndarray:
         ahead = behind = 0
         for f in feet:
             d = low[:, :2] - joints[p, f, :2]
-            along = d @ facing[p]
-            across = np.abs(d @ side[p])
+            along = matmul(d, facing[p])
+            across = np.abs(matmul(d, side[p]))
             inside = across <= b["half_width"]
             ahead += int(np.count_nonzero(inside & (along >= b["near"]) & (along <= b["far"])))
             behind += int(np.count_nonzero(inside & (-along >= b["near"])
@@ -216,7 +217,7 @@ def travel_evidence(positions, states, *, frame_rate: float, min_speed_mm_s: flo
     distance = float(np.hypot(*move))
     if distance / seconds < min_speed_mm_s:
         return np.zeros(len(states))
-    return facing_direction(states) @ (move / distance)
+    return matmul(facing_direction(states), move / distance)
 
 
 def facing_evidence(observation, model, states) -> np.ndarray:

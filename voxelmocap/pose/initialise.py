@@ -42,6 +42,7 @@ from ..body.kinematics import (
     forward_kinematics,
 )
 from ..measure.detect import Extremities
+from ..portable import dot, matmul
 
 __all__ = ["Hypothesis", "estimate_height", "initial_pose", "pose_hypotheses"]
 
@@ -260,10 +261,10 @@ def pose_hypotheses(ex: Extremities, model, *, n_ring: int = 4) -> list[Hypothes
                                                (feet_idx, (L_ANKLE, R_ANKLE))):
                 pts = tips[idx]
                 if len(pts) == 2:
-                    order = np.argsort(pts @ right)  # leftmost first
+                    order = np.argsort(matmul(pts, right))  # leftmost first
                     ends += [(left_row, pts[order[0]]), (right_row, pts[order[1]])]
                 elif len(pts) == 1:
-                    side = right_row if pts[0] @ right > ex.centre @ right else left_row
+                    side = right_row if dot(pts[0], right) > dot(ex.centre, right) else left_row
                     ends.append((side, pts[0]))
             x0 = standing.copy()
             x0[0], x0[1] = ex.centre[0], ex.centre[1]  # the standing pelvis height stays

@@ -16,12 +16,12 @@ estimate the mixture is built around the best hypotheses of
 
 from __future__ import annotations
 
+import math
 import time
 import weakref
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from scipy.special import logsumexp
 
 from ..body.kinematics import (
     HEAD_TOP,
@@ -33,6 +33,7 @@ from ..body.kinematics import (
     R_WRIST,
     forward_kinematics,
 )
+from ..portable import dot, logsumexp, matmul
 from ..tracking.truncated import truncated_normal, truncated_normal_logpdf
 from .initialise import ANKLE_SHARE, FOOT_SHARE, HAND_SHARE, PRIOR_MM_PER_RAD
 
@@ -126,7 +127,7 @@ class MixtureProposal:
         x = np.atleast_2d(np.asarray(x, dtype=float))
         per = np.stack([truncated_normal_logpdf(x, m, self.std, self.low, self.high).sum(axis=1)
                         for m in self.means])
-        return logsumexp(per, axis=0) - np.log(len(self.means))
+        return logsumexp(per, axis=0) - math.log(len(self.means))
 
 
 def _to_segment(points, a, b):
@@ -185,19 +186,19 @@ def _fit_ends(model, x0, rows, tips, *, iterations: int = 8) -> np.ndarray:
     h = 1e-5
     damping = 1e-3
     r = residuals(x[None])[0]
-    cost = float(r @ r)
+    cost = dot(r, r)
     for _ in range(iterations):
         X = np.repeat(x[None], len(free) + 1, axis=0)
         X[np.arange(1, len(free) + 1), free] += h
         R = residuals(X)
         J = (R[1:] - R[0]).T / h  # (m, n_free)
-        A = J.T @ J
-        g = J.T @ R[0]
+        A = matmul(J.T, J)
+        g = matmul(J.T, R[0])
         step = np.linalg.solve(A + damping * (np.diag(np.diag(A)) + 1e-9 * np.eye(len(free))), -g)
         cand = x.copy()
         cand[free] = np.clip(x[free] + step, low, high)
         rc = residuals(cand[None])[0]
-        cc = float(rc @ rc)
+        cc = dot(rc, rc)
         if cc < cost:
             x, cost, damping = cand, cc, damping * 0.3
         else:

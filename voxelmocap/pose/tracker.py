@@ -45,6 +45,7 @@ import numpy as np
 
 from ..config import TrackConfig
 from ..errors import InputError
+from ..portable import weighted_sum
 from .filter_setup import REFERENCE_RATE, build_filter, noise_profile
 from .records import FrameRecord, Observer, absent_record
 from .starts import GROUND_TRUTH_START, initial_state_from_voxels
@@ -516,7 +517,7 @@ class BodyTracker:
         if pf.iapf_fractions[1] == 0:
             return {}  # no particle comes from the proposal: nothing to build
         if mix is None:
-            previous = pf.estimate if pf.estimate is not None else pf.weights @ pf.particles
+            previous = pf.estimate if pf.estimate is not None else weighted_sum(pf.weights, pf.particles)
             mix = self.detector_mixture(observation, previous)
         self.last_proposal = mix
         return {"proposal": mix.sample,

@@ -207,4 +207,5 @@ def layer_noise_scales(n_layers: int, *, noise_decay: float = 0.5, alphas=None) 
         return 1.0 / np.sqrt(alphas)
     if not 0.0 < noise_decay <= 1.0:
         raise ValueError(f"noise_decay must be in (0, 1], got {noise_decay}")
-    return np.sqrt(noise_decay ** np.arange(n_layers, dtype=np.float64))
+    # the C library's pow, one layer at a time: NumPy's power loop depends on the CPU
+    return np.sqrt(np.array([float(noise_decay) ** k for k in range(n_layers)], dtype=np.float64))

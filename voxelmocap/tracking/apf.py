@@ -46,12 +46,13 @@ True
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from scipy.special import logsumexp
 
 from ..errors import InputError
+from ..portable import logsumexp, weighted_sum
 from .annealing import find_beta, layer_noise_scales, tempered_log_weights
 from .dynamics import Dynamics, RandomWalk
 from .resampling import Weights, get_scheme
@@ -381,16 +382,16 @@ class AnnealedParticleFilter:
                              "and prior std > 0 and low < high")
         # Weight p(x | ancestor) / q(x | ancestor, z), q = the mixture actually sampled.
         log_p = truncated_normal_logpdf(out, mean, std, self.low, self.high).sum(axis=1)
-        terms = [np.log(n_dyn / n) + log_p] if n_dyn else []
+        terms = [math.log(n_dyn / n) + log_p] if n_dyn else []
         if n_prop:
             log_g = np.asarray(proposal_log_pdf(out), dtype=np.float64)
             if log_g.shape != (n,) or np.any(np.isnan(log_g)):
                 raise ValueError(f"proposal_log_pdf must return ({n},) log-densities")
-            terms.append(np.log(n_prop / n) + log_g)
+            terms.append(math.log(n_prop / n) + log_g)
         if n_prior:
             log_prior = truncated_normal_logpdf(out, prior_mean, prior_std, self.low,
                                                 self.high).sum(axis=1)
-            terms.append(np.log(n_prior / n) + log_prior)
+            terms.append(math.log(n_prior / n) + log_prior)
         log_q = logsumexp(np.stack(terms), axis=0)
         with np.errstate(invalid="ignore"):
             offset = np.where(np.isneginf(log_p), -np.inf, log_p - log_q)
@@ -448,12 +449,12 @@ class AnnealedParticleFilter:
         self.log_weights = np.array(weights.log_w)
         self.log_likelihoods = ll
         self.layer_ess, self.layer_betas = ess, betas
-        self.estimate = weights.W @ x
+        self.estimate = weighted_sum(weights.W, x)
         best = int(np.argmax(weights.log_w))
         self.map_particle = x[best].copy()
         self.map_log_likelihood = float(ll[best])
         finite = np.isfinite(ll)
-        self.mean_log_likelihood = (float(weights.W[finite] @ ll[finite])
+        self.mean_log_likelihood = (weighted_sum(weights.W[finite], ll[finite])
                                     if not weights.degenerate and finite.any() else -np.inf)
         self.n_evaluations += self.step_evaluations
         self.frame += 1

@@ -36,6 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import InputError
+from ..portable import weighted_sum
 from .annealing import find_beta, layer_noise_scales, tempered_log_weights
 from .apf import _HISTORY, AnnealedParticleFilter
 from .refine import pattern_search
@@ -167,7 +168,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         ess, betas = np.empty(n_layers), np.empty(n_layers)
         w = Weights(self.log_weights)
         x = self.particles
-        reference = w.W @ x if self.estimate is None else self.estimate.copy()
+        reference = weighted_sum(w.W, x) if self.estimate is None else self.estimate.copy()
         map_state = reference.copy()
         pos = 0
         self.refine_gains = np.zeros(len(self.partitions))
@@ -184,7 +185,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
             x, w, lls = self._anneal_partition(k, part, x, w, ll, ess, betas, pos)
             searched.append((dims, x[:, dims], w.W))
             pos += part.layers
-            reference[dims] = w.W @ x[:, dims]
+            reference[dims] = weighted_sum(w.W, x[:, dims])
             best = int(np.argmax(w.log_w))
             map_state[dims] = x[best, dims]
             if self.refine_evaluations:
@@ -204,7 +205,7 @@ class PartitionedParticleFilter(AnnealedParticleFilter):
         best = int(np.argmax(w.log_w))
         self.map_log_likelihood = float(lls[best])
         finite = np.isfinite(lls)
-        self.mean_log_likelihood = (float(w.W[finite] @ lls[finite])
+        self.mean_log_likelihood = (weighted_sum(w.W[finite], lls[finite])
                                     if not w.degenerate and finite.any() else -np.inf)
         self.n_evaluations += self.step_evaluations
         self.frame += 1

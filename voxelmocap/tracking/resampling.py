@@ -22,10 +22,12 @@ configuration string selects one through :func:`get_scheme`:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.special import logsumexp
+
+from ..portable import exp, logsumexp
 
 __all__ = [
     "SCHEMES",
@@ -96,10 +98,10 @@ class Weights:
             degenerate = True
         else:
             # Shift by the maximum before exponentiating: the largest term is exactly 1.
-            e = np.exp(log_w - top)
+            e = exp(log_w - top)
             total = e.sum()
             W = e / total
-            log_mean = float(top + np.log(total) - np.log(n))
+            log_mean = float(top + math.log(total) - math.log(n))
             degenerate = False
         W.setflags(write=False)
         object.__setattr__(self, "log_w", log_w)
@@ -131,7 +133,7 @@ def log_mean_exp(values) -> float:
     values = np.asarray(values, dtype=np.float64)
     if np.all(np.isneginf(values)):
         return -np.inf
-    return float(logsumexp(values) - np.log(values.size))
+    return float(logsumexp(values) - math.log(values.size))
 
 
 def _inverse_cdf(uniforms: np.ndarray, W: np.ndarray) -> np.ndarray:

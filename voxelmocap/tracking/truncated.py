@@ -34,19 +34,23 @@ True
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.special import erf, log_ndtr, ndtr, ndtri, ndtri_exp
+
+from ..portable import expm1, log, log1p
 
 __all__ = ["truncated_normal", "truncated_normal_logpdf"]
 
 _SQRT2 = np.sqrt(2.0)
-_LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
+_LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 # Uniform draws are kept inside the open interval (0, 1) so that no inverse CDF returns ±inf.
 _U_MIN = 2.0**-60
 _U_MAX = 1.0 - 2.0**-53
 # Threshold on (max² - min²)/2 of the standardised interval below which rejection from a uniform
 # proposal is used: the acceptance probability is then at least exp(-log 2) = 1/2.
-_FLAT = np.log(2.0)
+_FLAT = math.log(2.0)
 
 
 def _broadcast(mean, std, low, high):
@@ -67,8 +71,8 @@ def _upper_tail(a, b, u):
     log_sa = log_ndtr(-a)
     log_sb = log_ndtr(-b)  # -inf when b = +inf
     # 1 - S(b)/S(a) computed without cancellation: -expm1(log S(b) - log S(a)).
-    frac = -np.expm1(log_sb - log_sa)
-    log_s = log_sa + np.log1p(-u * frac)
+    frac = -expm1(log_sb - log_sa)
+    log_s = log_sa + log1p(-u * frac)
     return np.clip(-ndtri_exp(log_s), a, b)
 
 
@@ -85,11 +89,11 @@ def _log_mass(a, b):
             la = log_ndtr(-lo[mask])
             lb = log_ndtr(-hi[mask])
             with np.errstate(divide="ignore"):
-                out[mask] = la + np.log(-np.expm1(lb - la))
+                out[mask] = la + log(-expm1(lb - la))
     if np.any(mid):
         # Straddling zero: erf keeps full relative precision even for a tiny interval.
         with np.errstate(divide="ignore"):
-            out[mid] = np.log(0.5 * (erf(b[mid] / _SQRT2) - erf(a[mid] / _SQRT2)))
+            out[mid] = log(0.5 * (erf(b[mid] / _SQRT2) - erf(a[mid] / _SQRT2)))
     return out
 
 
@@ -164,7 +168,7 @@ def truncated_normal(mean, std, low, high, rng: np.random.Generator) -> np.ndarr
             d_x = (x - m[pending]) / s[pending]
             d_n = (nearest[pending] - m[pending]) / s[pending]
             log_acc = -0.5 * (d_x - d_n) * (d_x + d_n)
-            accept = np.log(rng.random(pending.size)) <= log_acc
+            accept = log(rng.random(pending.size)) <= log_acc
             out[idx[pending[accept]]] = x[accept]
             pending = pending[~accept]
             v = rng.random(pending.size)
@@ -192,5 +196,5 @@ def truncated_normal_logpdf(x, mean, std, low, high) -> np.ndarray:
     z = (x - mean) / std
     a = (low - mean) / std
     b = (high - mean) / std
-    logp = -0.5 * z * z - _LOG_SQRT_2PI - np.log(std) - _log_mass(a, b)
+    logp = -0.5 * z * z - _LOG_SQRT_2PI - log(std) - _log_mass(a, b)
     return np.where((x >= low) & (x <= high), logp, -np.inf)
