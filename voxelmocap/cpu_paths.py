@@ -4,8 +4,8 @@ NumPy picks some loops by the CPU's instruction sets (its float64 ``exp``/``log`
 machines round differently in the last bit from the AVX2 ones) and OpenBLAS picks its kernels by
 the CPU model (an Intel AVX-512 server sums a matrix-vector product in another order than an AMD
 or a desktop Intel). SciPy's least squares, which fits the track's starting pose, goes through
-both. A particle filter makes another track out of such a last bit: the Pose2Sim demo's seed 4
-gave 106 mm on one 2-core EPYC and 431 mm on another with AVX-512 (``docs/benchmarks.md``).
+both. A particle filter makes another track out of such a last bit (``docs/architecture.md``,
+"The same bits on every CPU").
 
 :func:`pin` asks both libraries, through the environment variables they read when they load, for
 the paths every x86-64 machine since 2013 has — NumPy's AVX2 loops (``NPY_DISABLE_CPU_FEATURES``

@@ -5,8 +5,9 @@ A tracked result should not depend on the machine. Two things in NumPy do: its f
 by the CPU's instruction sets, and the AVX-512 loops round differently from the AVX2 ones in the
 last bit; a matrix-vector product ``W @ x`` goes to OpenBLAS, whose kernel — and so the order of
 its sums — depends on the CPU model. The annealed particle filter resamples on these weights, and
-a last-bit difference becomes another track within a few frames (the Pose2Sim demo, seed 4: 106
-mm on one 2-core EPYC, 431 mm on another with AVX-512; ``docs/benchmarks.md``). The functions
+a last-bit difference becomes another track within a few frames (a rendered walk tracked without
+the answer: 125 mm apart by frame 12 with NumPy's and OpenBLAS's CPU-specific code switched off;
+``docs/architecture.md``). The functions
 here compute the same quantities from the C library's scalar functions and sums in index order
 (:mod:`voxelmocap._portable_kernels`), which do not change with the CPU's instruction sets.
 
