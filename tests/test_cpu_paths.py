@@ -24,8 +24,25 @@ def test_pins_numpy_and_openblas_on_an_avx2_machine(on_x86):
     done = cpu_paths.pin(env, flags={"sse4_2", "avx", "avx2", "fma"})
     assert env == done
     assert env["OPENBLAS_CORETYPE"] == "Haswell"
-    assert set(env["NPY_DISABLE_CPU_FEATURES"].split()) == set(cpu_paths.AVX512_GROUPS)
+    assert set(env["NPY_DISABLE_CPU_FEATURES"].split()) == set(cpu_paths.avx512_groups())
     assert "X86_V3" not in env["NPY_DISABLE_CPU_FEATURES"].split()   # AVX2 loops stay
+
+
+def test_the_names_follow_the_numpy_version():
+    assert cpu_paths.avx512_groups("2.4.6") == ("X86_V4", "AVX512_ICL", "AVX512_SPR")
+    assert "AVX512_SKX" in cpu_paths.avx512_groups("1.26.4")
+    assert "AVX512_SKX" in cpu_paths.avx512_groups("2.3.1")
+    assert cpu_paths.avx512_groups("dev") == cpu_paths.AVX512_GROUPS
+
+
+@pytest.mark.skipif(not X86, reason="the pins are for x86-64")
+def test_numpy_loads_under_warnings_as_errors():
+    """Every name pinned is one the installed NumPy knows: an unknown one is an ImportWarning,
+    which ``-W error`` turns into a failed import (of the command and of its Dask workers)."""
+    env = {**os.environ, "NPY_DISABLE_CPU_FEATURES": " ".join(cpu_paths.avx512_groups())}
+    out = subprocess.run([sys.executable, "-W", "error", "-c", "import numpy"], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-1000:]
 
 
 def test_a_users_setting_wins_and_old_cpus_keep_their_blas(on_x86):

@@ -158,7 +158,7 @@ class Camera:
     @property
     def center(self) -> np.ndarray:
         """(3,) camera centre in world coordinates (mm): ``C = -Rᵀ T``."""
-        return -self.R.T @ self.T
+        return -matmul(self.R.T, self.T)
 
     centre = center
 

@@ -12,8 +12,9 @@ here compute the same quantities from the C library's scalar functions and sums 
 (:mod:`voxelmocap._portable_kernels`), which do not change with the CPU's instruction sets.
 
 What stays outside: the C library itself (results are the same across x86-64 machines with the
-same ``libm``, not across operating systems), and OpenCV, whose CPU-specific code paths did not
-change a tracked result (``tests/test_portable.py``).
+same ``libm``, not across operating systems); SciPy's least squares, which :mod:`voxelmocap.cpu_paths`
+pins for the command; and OpenCV, whose CPU-specific code paths did not change the demo's tracked
+result (``docs/benchmarks.md``).
 
 >>> import numpy as np
 >>> float(log(exp(np.float64(1.5))))

@@ -135,7 +135,7 @@ def _person(occ: np.ndarray, bridge_vox: float, min_voxels: int):
     labels, n = ndimage.label(occ, structure=np.ones((3, 3, 3), dtype=bool))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
     sizes[0] = 0
-    order = [int(i) for i in np.argsort(sizes)[::-1] if sizes[i] >= min_voxels]
+    order = [int(i) for i in np.argsort(sizes, kind="stable")[::-1] if sizes[i] >= min_voxels]
     if not order:
         order = [int(np.argmax(sizes))]
     coords = {i: np.argwhere(labels == i) for i in order}

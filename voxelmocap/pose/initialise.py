@@ -27,6 +27,7 @@ fit as well. The filter's first frame does the rest.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,7 +43,7 @@ from ..body.kinematics import (
     forward_kinematics,
 )
 from ..measure.detect import Extremities
-from ..portable import dot, matmul
+from ..portable import dot, matmul, norm
 
 __all__ = ["Hypothesis", "estimate_height", "initial_pose", "pose_hypotheses"]
 
@@ -94,7 +95,7 @@ def estimate_height(extremities: list[Extremities | None]) -> float | None:
 
 def _yaw_of_facing(facing: np.ndarray) -> float:
     # Facing at yaw ψ is Rz(ψ)·(0, 1, 0) = (−sin ψ, cos ψ, 0).
-    return float(np.arctan2(-facing[0], facing[1]))
+    return math.atan2(float(-facing[0]), float(facing[1]))
 
 
 def _right_of(yaw: float) -> np.ndarray:
@@ -108,7 +109,7 @@ def _candidate_yaws(feet: np.ndarray, hands: np.ndarray, n_ring: int) -> list[fl
     for pair in (feet, hands):
         if len(pair) == 2:
             lateral = (pair[1] - pair[0]) * np.array([1.0, 1.0, 0.0])
-            if np.linalg.norm(lateral) > 1e-6:
+            if norm(lateral) > 1e-6:
                 facing = np.cross([0.0, 0.0, 1.0], lateral)
                 yaws += [_yaw_of_facing(facing), _yaw_of_facing(-facing)]
     return yaws or list(np.linspace(-np.pi, np.pi, n_ring, endpoint=False))
@@ -117,7 +118,7 @@ def _candidate_yaws(feet: np.ndarray, hands: np.ndarray, n_ring: int) -> list[fl
 def _to_segment(point, a, b):
     """Vector from the closest point of segment [a, b] to ``point`` (3,)."""
     ab = b - a
-    t = np.clip(np.dot(point - a, ab) / max(np.dot(ab, ab), 1e-12), 0.0, 1.0)
+    t = min(max(dot(point - a, ab) / max(dot(ab, ab), 1e-12), 0.0), 1.0)
     return point - (a + t * ab)
 
 
@@ -137,7 +138,7 @@ def _end_residual(model, joints, row, tip, yaw) -> np.ndarray:
         return tip - j
     if row in (L_WRIST, R_WRIST):
         d = j - joints[_PARENT[row]]
-        return _to_segment(tip, j, j + HAND_SHARE * height * d / max(np.linalg.norm(d), 1e-9))
+        return _to_segment(tip, j, j + HAND_SHARE * height * d / max(norm(d), 1e-9))
     facing = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
     foot = j + FOOT_SHARE * height * facing - np.array([0.0, 0.0, ANKLE_SHARE * height])
     return _to_segment(tip, j, foot)

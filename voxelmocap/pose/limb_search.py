@@ -152,7 +152,7 @@ def sweep_limbs(observation, model, state, *, scoring: LimbScoring | None = None
             scores = ll(cand)
             best_x, best_f = x, current
             steps = 0.05 * (hi - lo)
-            for i in np.argsort(scores)[::-1][:int(keep)]:
+            for i in np.argsort(scores, kind="stable")[::-1][:int(keep)]:
                 xi, fi, _ = pattern_search(ll, cand[i], dims_a, steps, low=model.low,
                                            high=model.high, max_evaluations=refine_evaluations,
                                            f0=float(scores[i]))
