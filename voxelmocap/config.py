@@ -396,6 +396,9 @@ class InitConfig(Section):
         3, "a plate learnt in passes: from this pass on, start from the previous pass's body and "
         "first pose (0: never)", ge=0, says="0 (never) or >= 2")
 
+    previous_pass_hypothesis: bool = setting(
+        True, "a pass after the first that searches its start: the previous pass's pose at that "
+        "frame (all four limbs searched again) is tracked as one more starting pose")
     start_turned: bool = setting(False, "test hook: start from the best start alone, turned round, "
                                  "to check that the facing check turns it back")
 

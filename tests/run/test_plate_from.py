@@ -367,6 +367,28 @@ def test_the_third_pass_starts_where_the_second_did(no_answer_run):
         assert "the voxels of frame" in r.attrs["init_method"]
 
 
+def test_a_searched_start_also_tries_the_previous_pass_pose(no_answer_run):
+    """Pass 2 searches its start from the voxels and tracks pass 1's pose at the first frame as
+    one more start, its four limbs searched again (``[init] previous_pass_hypothesis``): the
+    trunk exactly pass 1's; pass 1, which has no pass before it, has no such start."""
+    from voxelmocap.pose.limb_search import LIMBS
+
+    _, out, means = no_answer_run
+    first_path = (out / "S1" / "pass1" / "Walking_1.h5").resolve()
+    first = read_result(first_path)
+    second = read_result(out / "S1" / "pass2" / "Walking_1.h5")
+    assert f"and the pose of {first_path} at frame 1" in second.attrs["init_method"]
+    assert "the pose of" not in first.attrs["init_method"]
+    limbs = np.concatenate([LIMBS[name][0] for name in ("l_arm", "r_arm", "l_leg", "r_leg")])
+    trunk = np.setdiff1d(np.arange(first.state.shape[1]), limbs)
+    starts = [m for p, m in means if p == "multi-start"]
+    same = [m for m in starts if np.array_equal(m[trunk], first.state[0][trunk])]
+    assert len(same) == 1, len(same)
+    # the start's own: pass 1's first frame is drawn from the multi-start it kept, not equal
+    # to any of its starts
+    assert not any(np.array_equal(m, first.state[0]) for m in starts)
+
+
 def test_a_continued_pass_resumes_where_it_was_interrupted(no_answer_run, tmp_path,
                                                           interrupt_at_third_frame, capsys):
     """The third pass interrupted after two frames and resumed (``--resume``): passes 1 and 2
