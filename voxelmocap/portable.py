@@ -25,11 +25,13 @@ result (``docs/benchmarks.md``).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import _portable_kernels as _k
 
-__all__ = ["dot", "exp", "expm1", "log", "log1p", "logsumexp", "matmul", "norm",
+__all__ = ["atan2", "dot", "exp", "expm1", "log", "log1p", "logsumexp", "matmul", "norm",
            "weighted_sum"]
 
 
@@ -126,6 +128,12 @@ def matmul(a, b):
     for k in range(1, a.shape[-1]):
         out = out + a[..., :, k:k + 1] * b[..., k:k + 1, :]
     return out[..., 0, :] if vector else out
+
+
+def atan2(y, x) -> float:
+    """``atan2(y, x)`` of two scalars (float), from the C library: NumPy's ``arctan2`` has AVX-512
+    loops, even for scalars."""
+    return math.atan2(float(y), float(x))
 
 
 def dot(a, b) -> float:

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import InputError
-from ..portable import dot, matmul, norm
+from ..portable import atan2, dot, matmul, norm
 from .kinematics import (
     HEAD_TOP,
     L_ANKLE,
@@ -52,11 +52,6 @@ from .kinematics import (
 __all__ = ["analytic_state", "fit_to_landmarks", "retarget"]
 
 
-def _atan2(y, x) -> float:
-    # the C library's atan2: NumPy's arctan2 has AVX-512 loops (voxelmocap.portable)
-    return math.atan2(float(y), float(x))
-
-
 def _unit(v):
     n = norm(v)
     return v / n if n > 1e-12 else v * 0.0
@@ -75,8 +70,8 @@ def _frame(x_dir, z_dir):
 def _xyz_euler(m):
     """Angles (a, b, c) with m = Rx(a) Ry(b) Rz(c)."""
     b = math.asin(min(max(float(m[0, 2]), -1.0), 1.0))
-    a = _atan2(-m[1, 2], m[2, 2])
-    c = _atan2(-m[0, 1], m[0, 0])
+    a = atan2(-m[1, 2], m[2, 2])
+    c = atan2(-m[0, 1], m[0, 0])
     return a, b, c
 
 
@@ -88,14 +83,14 @@ def _limb_angles(parent, top, mid, end, sign, hinge_sign, low, high):
     """
     v = matmul(parent.T, _unit(mid - top))                   # (−sin b, sin f cos b, −cos f cos b)
     b0 = math.asin(min(max(float(-v[0]), -1.0), 1.0))
-    f0 = _atan2(v[1], -v[2])
+    f0 = atan2(v[1], -v[2])
     best, best_bad = None, np.inf
     for f, b in ((f0, b0), (f0 + np.pi, np.pi - b0), (f0 - np.pi, np.pi - b0),
                  (f0 + np.pi, -np.pi - b0), (f0 - np.pi, -np.pi - b0)):
         q = matmul(matmul(rotation_x(f), rotation_y(b)).T, matmul(parent.T, _unit(end - mid)))
         hinge = math.acos(min(max(float(-q[2]), -1.0), 1.0))
         # elbow: q = (−sin r sin e, cos r sin e, ·); knee: q = (sin r sin k, −cos r sin k, ·)
-        r = _atan2(-hinge_sign * q[0], hinge_sign * q[1]) if np.sin(hinge) > 1e-6 else 0.0
+        r = atan2(-hinge_sign * q[0], hinge_sign * q[1]) if np.sin(hinge) > 1e-6 else 0.0
         cand = np.array([f, sign * b, -sign * r, hinge])
         bad = np.sum(np.maximum(low - cand, 0.0) + np.maximum(cand - high, 0.0))
         if bad < best_bad - 1e-12:
@@ -128,14 +123,14 @@ def analytic_state(model, landmarks) -> np.ndarray:
     root = _frame(lateral, up)
     # root = Rz(yaw) Rx(−pitch) Ry(roll): row 2 = (−cos a sin r, sin a, cos a cos r), a = −pitch
     a = math.asin(min(max(float(root[2, 1]), -1.0), 1.0))
-    x[3] = _atan2(-root[0, 1], root[1, 1])
+    x[3] = atan2(-root[0, 1], root[1, 1])
     x[4] = -a
-    x[5] = _atan2(-root[2, 0], root[2, 2])
+    x[5] = atan2(-root[2, 0], root[2, 2])
     torso = _frame(lm[R_SHOULDER] - lm[L_SHOULDER], thorax - pelvis)
     wa, wb, wc = _xyz_euler(matmul(root.T, torso))
     x[6:9] = (-wa, wb, wc)
     v = matmul(torso.T, _unit(lm[HEAD_TOP] - thorax))       # (sin b, −sin a cos b, cos a cos b)
-    x[9] = -_atan2(-v[1], v[2])
+    x[9] = -atan2(-v[1], v[2])
     x[10] = math.asin(min(max(float(v[0]), -1.0), 1.0))
     lo, hi = model.low, model.high
     parents = {"torso": torso, "root": root}

@@ -228,7 +228,7 @@ class GaussianBackground:
 
     def threshold(self, risk: float = _DEFAULT.risk) -> float:
         """Log-likelihood threshold ``−log(256^C · risk)`` below which a pixel is foreground."""
-        return -(self.channels * math.log(256.0) + float(log(float(risk))))
+        return -(self.channels * math.log(256.0) + math.log(float(risk)))
 
     def foreground(self, image, *, risk: float = _DEFAULT.risk, shadows: bool = False,
                    shadow_brightness=_DEFAULT.shadow_brightness,

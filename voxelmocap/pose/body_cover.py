@@ -39,6 +39,11 @@ class TrackedBody:
     states: np.ndarray
     source: str
 
+    def state_at(self, frame: int) -> np.ndarray | None:
+        """The ``(27,)`` state tracked at ``frame``, or None where the run has none."""
+        k = int(np.searchsorted(self.frames, frame))
+        return self.states[k] if k < len(self.frames) and self.frames[k] == frame else None
+
 
 def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
                     ) -> dict[str, np.ndarray]:

@@ -27,7 +27,6 @@ fit as well. The filter's first frame does the rest.
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +42,7 @@ from ..body.kinematics import (
     forward_kinematics,
 )
 from ..measure.detect import Extremities
-from ..portable import dot, matmul, norm
+from ..portable import atan2, dot, matmul, norm
 
 __all__ = ["Hypothesis", "estimate_height", "initial_pose", "pose_hypotheses"]
 
@@ -95,7 +94,7 @@ def estimate_height(extremities: list[Extremities | None]) -> float | None:
 
 def _yaw_of_facing(facing: np.ndarray) -> float:
     # Facing at yaw ψ is Rz(ψ)·(0, 1, 0) = (−sin ψ, cos ψ, 0).
-    return math.atan2(float(-facing[0]), float(facing[1]))
+    return atan2(-facing[0], facing[1])
 
 
 def _right_of(yaw: float) -> np.ndarray:

@@ -272,10 +272,9 @@ class PassRun:
     def _continue_start(self, measurement, frame_number) -> None:
         """Start from the previous pass's pose at this frame (its arms searched again)."""
         body = self.plate_body
-        if frame_number in body.frames:
-            k = int(np.searchsorted(body.frames, frame_number))
+        state = body.state_at(frame_number)
+        if state is not None:
             phrase = f"the pose of {body.source} at frame {frame_number}"
-            state = body.states[k]
             if self.config.init.limb_sweep:
                 # The arms only, on this pass's better silhouettes: a start whose arm the
                 # previous pass had wrong keeps it for frames otherwise; the legs searched too
@@ -311,10 +310,9 @@ class PassRun:
         can otherwise lose a facing the pass before had right (docs/benchmarks.md, seed 4),
         while the likelihood of the frames that follow prefers it."""
         body = self.plate_body
-        if (body is None or not self.config.init.previous_pass_hypothesis
-                or frame_number not in body.frames):
+        state = None if body is None else body.state_at(frame_number)
+        if state is None or not self.config.init.previous_pass_hypothesis:
             return states
-        state = body.states[int(np.searchsorted(body.frames, frame_number))]
         if self.config.init.limb_sweep:
             state = self.tracker.searched_starts(measurement, state[None])[0][0]
         self.init_method += f" and the pose of {body.source} at frame {frame_number}"
