@@ -148,6 +148,10 @@ class SilhouetteConfig(Section):
     plate_body_margin: float = setting(
         20.0, "learnt plate from a tracked body: margin of the body's image, the person's cover in "
         "each frame", unit="mm at the body's depth", ge=0)
+    plate_body_support: float = setting(
+        0.0, "learnt plate from a tracked body: radius of the vertical column under the pelvis, "
+        "down to the floor, also covered in each frame (a lost standing leg is in it; 0 = none)",
+        unit="mm", ge=0)
     plate_body_min_seen: float = setting(
         0.0, "learnt plate from a tracked body: a pixel the body left free in fewer than this "
         "share of the sampled frames is unknown", ge=0, lt=1)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TrackedBody", "plate_covers_of"]
+__all__ = ["TrackedBody", "plate_covers_of", "support_column"]
 
 
 @dataclass(frozen=True)
@@ -45,12 +45,18 @@ class TrackedBody:
         return self.states[k] if k < len(self.frames) and self.frames[k] == frame else None
 
 
-def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
-                    ) -> dict[str, np.ndarray]:
+def plate_covers_of(rig, model, states, margin: float, *, support: float = 0.0,
+                    max_side: int = 480) -> dict[str, np.ndarray]:
     """Each camera's image of the body in each state, grown by ``margin``: a plate's cover.
 
     Drawn at most ``max_side`` pixels on a side (the resolution :func:`learn_plates` finds its
     covers at; :func:`~voxelmocap.measure.background.plates_from_covers` resizes them).
+
+    With ``support`` the cover also holds the image of the vertical cylinder of that radius
+    under the pelvis, from its height down to the floor (:func:`support_column`): wherever the
+    tracked legs went, a standing person's legs are in it. A leg the previous pass lost would
+    otherwise be left uncovered where it stood, and a leg that stands in one place for most of
+    the sequence is what the median of its uncovered frames then learns as background.
 
     Parameters
     ----------
@@ -59,6 +65,8 @@ def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
     states : (F, 27) array_like
     margin : float
         Millimetres at the body's depth (the tracked cones are not the person's exact outline).
+    support : float
+        Radius (mm) of the column under the pelvis also covered (0: none).
     max_side : int
 
     Returns
@@ -87,4 +95,33 @@ def plate_covers_of(rig, model, states, margin: float, *, max_side: int = 480
                 m = far <= r
             masks.append(m)
         out[cam.name] = np.stack(masks)
+        if support > 0:
+            for f, state in enumerate(states):
+                out[cam.name][f] |= support_column(small, state[:3], support)
     return out
+
+
+def support_column(camera, pelvis, radius: float, *, sides: int = 48) -> np.ndarray:
+    """(H, W) bool image of the vertical cylinder of ``radius`` (mm) from ``pelvis`` to the floor.
+
+    The image of a convex solid is convex: the convex hull of its two end circles' images
+    (``sides``-gons, which the circles' images hardly exceed). Empty when any of it is behind the
+    camera (a hull of such points would be meaningless) or the pelvis is below the floor.
+    """
+    import cv2
+
+    w, h = camera.size
+    out = np.zeros((h, w), np.uint8)
+    x, y, z = (float(v) for v in pelvis)
+    if z <= 0:
+        return out.astype(bool)
+    ang = np.arange(sides) * (2 * np.pi / sides)
+    ring = np.stack([x + radius * np.cos(ang), y + radius * np.sin(ang)], axis=1)
+    ends = np.concatenate([np.c_[ring, np.full(sides, z)], np.c_[ring, np.zeros(sides)]])
+    if (camera.world_to_camera(ends)[:, 2] <= 0).any():
+        return out.astype(bool)
+    uv = camera.project(ends)
+    # far off-image points only clip: keep the hull's coordinates within int32's comfortable range
+    uv = np.clip(np.round(uv), -4 * (w + h), 4 * (w + h)).astype(np.int32)
+    cv2.fillConvexPoly(out, cv2.convexHull(uv), 1)
+    return out.astype(bool)

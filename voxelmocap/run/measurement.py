@@ -224,7 +224,8 @@ class MeasurementRunner(MeasurementStage):
                 seen = max(silhouette.plate_min_seen,
                            int(round(silhouette.plate_body_min_seen * len(numbers))))
                 plates = plates_from_covers(samples, plain, plate_covers_of(
-                    plain, plate_body.model, states, silhouette.plate_body_margin),
+                    plain, plate_body.model, states, silhouette.plate_body_margin,
+                    support=silhouette.plate_body_support),
                     dataclasses.replace(silhouette, plate_min_seen=seen))
                 how = f"the person where the body of {plate_body.source} was"
             else:
