@@ -150,8 +150,8 @@ class SilhouetteConfig(Section):
         "each frame", unit="mm at the body's depth", ge=0)
     plate_body_support: float = setting(
         0.0, "learnt plate from a tracked body: radius of the vertical column under the pelvis, "
-        "down to the floor, also covered in each frame (a lost standing leg is in it; 0 = none)",
-        unit="mm", ge=0)
+        "down to the floor, also covered in each frame around the body of the pass that learnt "
+        "its plate by carving (a standing leg that pass lost is in it; 0 = none)", unit="mm", ge=0)
     plate_body_min_seen: float = setting(
         0.0, "learnt plate from a tracked body: a pixel the body left free in fewer than this "
         "share of the sampled frames is unknown", ge=0, lt=1)

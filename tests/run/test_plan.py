@@ -89,6 +89,24 @@ def test_which_passes_continue_the_previous_one(first, expected):
     assert len(plan.describe()) == 5
 
 
+def test_the_support_column_is_for_the_carving_pass_body_only():
+    """``plate_body_support``: the plate of pass 2 (around the body tracked against the plate
+    learnt by carving) covers the column; the passes after it, around bodies tracked against a
+    plate learnt from a body, do not; the pass that carves keeps the config as given."""
+    key = "measurement.silhouette.plate_body_support"
+    config = with_overrides(TrackConfig(), **{key: 350.0,
+                                              "measurement.silhouette.plate_passes": 4})
+    plan = plan_passes(NO_VIDEOS, config, n_frames=20)
+    support = [p.config.measurement.silhouette.plate_body_support for p in plan.passes]
+    assert support == [350.0, 350.0, 0.0, 0.0]
+    # nothing else differs between pass 2's settings and the later passes'
+    later = with_overrides(plan.passes[1].config, **{key: 0.0})
+    assert [p.config for p in plan.passes[2:]] == [later, later]
+    # a plate from a given run: the column as set
+    run = plan_passes(NO_VIDEOS, config, n_frames=20, plate_from="RUN")
+    assert run.passes[0].config.measurement.silhouette.plate_body_support == 350.0
+
+
 def test_too_few_frames_for_a_plate_from_a_body_take_one_pass_by_carving():
     """Fewer than MIN_BODY_FRAMES frames: one pass, the plate by carving, the config as given
     (no silhouette cue: there is no body to learn a plate from)."""

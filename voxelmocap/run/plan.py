@@ -13,7 +13,9 @@
   (``[measurement.silhouette] plate_passes``): the first learns its plate by carving against the
   sequence's temporal median; every later one from the body the pass before tracked
   (:func:`voxelmocap.pose.body_cover.plate_covers_of`), which finds the background behind a
-  person who stays in one place far better; from ``[init] previous_pass_start`` on, a pass also
+  person who stays in one place far better (the plate of pass 2, around the body tracked against
+  the carving plate, also covers the support column under its pelvis:
+  ``[measurement.silhouette] plate_body_support``); from ``[init] previous_pass_start`` on, a pass also
   starts from the previous pass's body and pose (its arms searched again on that frame,
   :data:`CONTINUED_SEARCH`) instead of searching its start from the voxels.
 
@@ -173,8 +175,12 @@ def plan_passes(seq, config: TrackConfig, *, masks=None, plate_from=None, n_fram
     if n == 1 or n_frames < MIN_BODY_FRAMES:
         return RunPlan((PassPlan(1, 1, config, "carving" if learnt else "videos"),))
     first = config.init.previous_pass_start     # 0 (never) or >= 2: validated
+    # The support column is for the body of the carving pass only: its plate, a temporal median,
+    # absorbed a leg that stood still, so that body's legs say little about where the legs were.
+    # Around a later body it leaves the floor under a standing foot unseen in every frame.
+    later = with_overrides(body_config, **{"measurement.silhouette.plate_body_support": 0.0})
     return RunPlan((PassPlan(1, n, config, "carving"),) + tuple(
-        PassPlan(k, n, body_config, "previous", continues=0 < first <= k)
+        PassPlan(k, n, body_config if k == 2 else later, "previous", continues=0 < first <= k)
         for k in range(2, n + 1)), body_note)
 
 
