@@ -56,3 +56,21 @@ def test_unwritable_targets_are_one_input_error(tmp_path, case):
         atomic_write_text(target, "x")
     assert "\n" not in str(info.value)
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+def test_a_write_removes_the_temporaries_a_killed_writer_left(tmp_path):
+    """``kill -9`` between creating a temporary and renaming it leaves the temporary: the next
+    write of the same file removes it, and only its own (other files' are left alone)."""
+    from voxelmocap.io._atomic import atomic_write_text, create_temporary
+
+    target = tmp_path / "Walking_1.bvh"
+    stale = [create_temporary(target) for _ in range(2)]        # two killed writers
+    other = create_temporary(tmp_path / "Walking_1.csv")        # another output's, maybe live
+    keep = [tmp_path / ".Walking_1.partial-abc.bvh", tmp_path / ".Walking_1.partial-abcdefghij.trc",
+            tmp_path / "Walking_1.partial-abcdefghij.bvh"]
+    for p in keep:
+        p.write_text("not a temporary of the target")
+    atomic_write_text(target, "HIERARCHY\n")
+    assert target.read_text() == "HIERARCHY\n"
+    assert not any(p.exists() for p in stale)
+    assert other.exists() and all(p.exists() for p in keep)

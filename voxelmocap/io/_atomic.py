@@ -102,9 +102,25 @@ def atomic_path(path) -> Iterator[Path]:
             os.replace(tmp, path)
         except OSError as exc:
             raise InputError(path, f"cannot write here ({exc.strerror or exc})") from None
+        _remove_stale_temporaries(path)
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+def _remove_stale_temporaries(path: Path) -> None:
+    """Delete the temporaries of ``path`` a killed writer left (``kill -9`` between creating one
+    and renaming it): once ``path`` is written, no other write of it is under way (a run's outputs
+    are locked to it), so any other such sibling is a leftover."""
+    head, tail = f".{path.stem}.partial-", path.suffix
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(path.parent):
+            name = entry.name
+            middle = name[len(head):len(name) - len(tail)] if tail else name[len(head):]
+            if (name.startswith(head) and name.endswith(tail) and len(middle) == 10
+                    and middle.isascii() and middle.isalpha() and middle.islower()):
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(entry.path)
 
 
 def write_reason(exc: BaseException) -> str:
