@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
 import string
 from collections.abc import Iterator
@@ -112,13 +113,10 @@ def _remove_stale_temporaries(path: Path) -> None:
     """Delete the temporaries of ``path`` a killed writer left (``kill -9`` between creating one
     and renaming it): once ``path`` is written, no other write of it is under way (a run's outputs
     are locked to it), so any other such sibling is a leftover."""
-    head, tail = f".{path.stem}.partial-", path.suffix
+    pattern = re.compile(re.escape(f".{path.stem}.partial-") + "[a-z]{10}" + re.escape(path.suffix))
     with contextlib.suppress(OSError):
         for entry in os.scandir(path.parent):
-            name = entry.name
-            middle = name[len(head):len(name) - len(tail)] if tail else name[len(head):]
-            if (name.startswith(head) and name.endswith(tail) and len(middle) == 10
-                    and middle.isascii() and middle.isalpha() and middle.islower()):
+            if pattern.fullmatch(entry.name):
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(entry.path)
 

@@ -114,14 +114,14 @@ def support_column(camera, pelvis, radius: float, *, sides: int = 48) -> np.ndar
     out = np.zeros((h, w), np.uint8)
     x, y, z = (float(v) for v in pelvis)
     if z <= 0:
-        return out.astype(bool)
+        return out.view(bool)
     ang = np.arange(sides) * (2 * np.pi / sides)
     ring = np.stack([x + radius * np.cos(ang), y + radius * np.sin(ang)], axis=1)
     ends = np.concatenate([np.c_[ring, np.full(sides, z)], np.c_[ring, np.zeros(sides)]])
     if (camera.world_to_camera(ends)[:, 2] <= 0).any():
-        return out.astype(bool)
+        return out.view(bool)
     uv = camera.project(ends)
     # far off-image points only clip: keep the hull's coordinates within int32's comfortable range
     uv = np.clip(np.round(uv), -4 * (w + h), 4 * (w + h)).astype(np.int32)
     cv2.fillConvexPoly(out, cv2.convexHull(uv), 1)
-    return out.astype(bool)
+    return out.view(bool)
