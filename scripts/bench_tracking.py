@@ -12,7 +12,7 @@ compilation, tables) is left out. Every variant has ``TrackConfig``'s defaults b
 Usage: ``python scripts/bench_tracking.py [--frames 30] [--layers 6] [--particles 600]
 [--variants joint,hierarchical]``
 
-Feeds docs/benchmarks.md, "Speed" (run under ``farm-bench -n N`` for medians over runs) and the
+Feeds docs/benchmarks.md, "Speed" (run N times as a whole process, the medians quoted) and the
 frames per second of the ablation in "Accuracy on rendered clips".
 """
 

@@ -122,3 +122,24 @@ def test_numba_kinematics_match_numpy_reference():
     for name in ("base", "axis", "u1", "u2", "joints"):
         np.testing.assert_allclose(getattr(fast, name), getattr(ref, name), atol=1e-9,
                                    err_msg=name)
+
+
+def test_one_angles_rotation_is_the_batched_one_and_the_closed_form():
+    """The single-angle path (the fits' inner loops) builds the same bytes as the batched stack,
+    and both are the right-hand rotations about x, y, z."""
+    from voxelmocap.body.kinematics import rotation_x, rotation_y, rotation_z
+
+    rng = np.random.default_rng(3)
+    angles = np.concatenate([rng.uniform(-7.0, 7.0, 200), [0.0, -0.0, np.pi, -np.pi / 2]])
+    batched = {f: f(angles) for f in (rotation_x, rotation_y, rotation_z)}
+    for k, a in enumerate(angles):
+        for f in (rotation_x, rotation_y, rotation_z):
+            for one in (float(a), np.float64(a), np.array(a)):
+                assert f(one).shape == (3, 3)
+                assert f(one).tobytes() == batched[f][k].tobytes()
+    a = 0.3
+    c, s = np.cos(a), np.sin(a)
+    # rotating the axes' basis vectors: x stays, y goes towards z, and so on (right hand)
+    np.testing.assert_allclose(rotation_x(a) @ [0, 1, 0], [0, c, s])
+    np.testing.assert_allclose(rotation_y(a) @ [0, 0, 1], [s, 0, c])
+    np.testing.assert_allclose(rotation_z(a) @ [1, 0, 0], [c, s, 0])

@@ -49,7 +49,7 @@ def test_masked_median_equals_numpy_per_pixel():
     rng = np.random.default_rng(1)
     frames = rng.integers(0, 256, size=(9, 7, 5, 3), dtype=np.uint8)
     keep = rng.random((9, 7, 5)) < 0.6
-    med, count = masked_median(frames, keep, rows=3)
+    med, count = masked_median(frames, keep)
     for i in range(7):
         for j in range(5):
             k = keep[:, i, j]

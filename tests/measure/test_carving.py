@@ -313,3 +313,23 @@ def test_abstaining_pixels_do_not_count_in_the_hole_tolerant_carving(rig, grid, 
     np.testing.assert_array_equal(carver.carve_with_holes(holed, 1, ignore=[c], abstain=abstain),
                                   carver.carve_with_holes(holed, 1, ignore=[c], abstain=[
                                       None if k == c else a for k, a in enumerate(abstain)]))
+
+
+def test_the_reach_dilation_on_the_silhouettes_box_is_opencvs_on_the_whole_image():
+    """The hole rule's reach: a silhouette dilated on its bounding box grown by the radius gives
+    OpenCV's whole-image dilation exactly, at the image edges too, and nothing for no person."""
+    import cv2
+
+    from voxelmocap.measure.carving import _dilated
+
+    rng = np.random.default_rng(8)
+    for trial in range(30):
+        h, w = rng.integers(20, 90, 2)
+        mask = np.zeros((h, w), np.uint8)
+        for _ in range(rng.integers(0, 4)):          # blobs, some touching an edge
+            y, x = rng.integers(0, h), rng.integers(0, w)
+            mask[y:y + rng.integers(1, 15), x:x + rng.integers(1, 15)] = 1
+        r = int(rng.integers(1, 9))
+        disk = (np.hypot(*np.mgrid[-r:r + 1, -r:r + 1]) <= r).astype(np.uint8)
+        want = cv2.dilate(mask, disk).astype(bool)
+        np.testing.assert_array_equal(_dilated(mask, disk, r), want)

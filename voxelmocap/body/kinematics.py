@@ -67,6 +67,8 @@ def rotation_x(a) -> np.ndarray:
     """(..., 3, 3) rotations by angles ``a`` (rad) about x (right-hand rule)."""
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a), np.sin(a)
+    if a.ndim == 0:                       # one angle (the fits' inner loops): no stacking
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
     o, z = np.ones_like(a), np.zeros_like(a)
     return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1),
                      np.stack([z, s, c], -1)], -2)
@@ -76,6 +78,8 @@ def rotation_y(a) -> np.ndarray:
     """(..., 3, 3) rotations by angles ``a`` (rad) about y (right-hand rule)."""
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a), np.sin(a)
+    if a.ndim == 0:
+        return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     o, z = np.ones_like(a), np.zeros_like(a)
     return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1),
                      np.stack([-s, z, c], -1)], -2)
@@ -85,6 +89,8 @@ def rotation_z(a) -> np.ndarray:
     """(..., 3, 3) rotations by angles ``a`` (rad) about z (right-hand rule)."""
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a), np.sin(a)
+    if a.ndim == 0:
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     o, z = np.ones_like(a), np.zeros_like(a)
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1),
                      np.stack([z, z, o], -1)], -2)

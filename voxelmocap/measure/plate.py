@@ -18,16 +18,12 @@ from scipy import stats
 from ..camera import shrunk_size
 from ..config import SilhouetteConfig
 from ..errors import InputError
-from .threads import each
+from .threads import each, width
 
 __all__ = ["PlateBackground", "camera_at_most", "downscale_camera", "masked_median",
            "plate_from_frames"]
 
 _DEFAULT = SilhouetteConfig()
-#: The sort buffers :func:`masked_median` holds at once, at most (bytes; at least one block):
-#: two blocks of 60 frames × 64 rows of a 1920-pixel-wide colour camera, as much as one block of
-#: 128 rows took before the blocks were sorted side by side (a run's peak memory is there).
-_SORT_BYTES = 100 * 2 ** 20
 #: Gains outside this range mean the frame is not comparable with the plate (lights switched).
 _GAIN_RANGE = (0.5, 2.0)
 
@@ -64,8 +60,13 @@ def camera_at_most(camera, max_side: int):
 
 
 def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
-                  quartiles: bool = False, rows: int = 64):
+                  quartiles: bool = False):
     """Per-pixel median of the frames where ``keep`` is True.
+
+    The order statistics come from a histogram of each pixel's samples
+    (:func:`~voxelmocap.measure._plate_kernels.order_statistics`, blocks of rows side by side
+    on the threads of :func:`~voxelmocap.measure.threads.each`);
+    a quantile between two samples is interpolated linearly, as NumPy's default percentile.
 
     Parameters
     ----------
@@ -75,10 +76,6 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
     quartiles : bool
         Also return the robust σ = (Q3 − Q1) / 1.349 of the kept samples (per pixel, the root
         mean square over the channels).
-    rows : int
-        Rows per block: a block's sort holds ``F × rows × W × C`` uint16 values; blocks are
-        sorted side by side (:func:`~voxelmocap.measure.threads.each`), as many at once as fit
-        in 100 MiB of such buffers.
 
     Returns
     -------
@@ -87,39 +84,25 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
         Samples kept per pixel (0: no median, the value is 0).
     sigma : (H, W) float32, only with ``quartiles``
     """
+    from ._plate_kernels import order_statistics
+
+    frames = np.asarray(frames)
+    if frames.ndim != 4 or frames.dtype != np.uint8:
+        raise InputError("background frames", f"expected (F, H, W, C) uint8 frames, got "
+                                              f"{frames.dtype} of shape {frames.shape}")
     f, h, w, c = frames.shape
     med = np.zeros((h, w, c), np.float32)
     sig = np.zeros((h, w), np.float32)
-    count = np.full((h, w), f, int) if keep is None else keep.sum(axis=0)
-
-    def block_of(r0):
-        # the blocks are disjoint rows: side by side (:mod:`.threads`), each writes its own
-        block = frames[:, r0:r0 + rows].astype(np.uint16)
-        if keep is not None:
-            block[~keep[:, r0:r0 + rows]] = 512          # sorts after every real value
-        block.sort(axis=0)
-        n = count[r0:r0 + rows]
-
-        def at(q):
-            pos = np.clip((n - 1) * q, 0, None)
-            lo = np.floor(pos).astype(int)
-            hi = np.ceil(pos).astype(int)
-            a = np.take_along_axis(block, lo[None, :, :, None].repeat(c, 3), 0)[0]
-            b = np.take_along_axis(block, hi[None, :, :, None].repeat(c, 3), 0)[0]
-            t = (pos - lo)[:, :, None]
-            return a * (1 - t) + b * t
-
-        m = at(0.5)
-        m[n == 0] = 0
-        med[r0:r0 + rows] = m
-        if quartiles:
-            s = np.sqrt((((at(0.75) - at(0.25)) / 1.349) ** 2).mean(axis=2))
-            s[n < 4] = 0
-            sig[r0:r0 + rows] = s
-
-    # a block's sort buffer is F × rows × W × C uint16: at most _SORT_BYTES of them at once
-    block_bytes = 2 * f * min(rows, h) * w * c
-    each(block_of, range(0, h, rows), at_most=max(1, _SORT_BYTES // max(block_bytes, 1)))
+    count = np.zeros((h, w), np.int64)
+    use_keep = keep is not None
+    keep = (np.ascontiguousarray(keep, bool) if use_keep else np.zeros((1, 1, 1), bool))
+    if use_keep and keep.shape != (f, h, w):
+        raise InputError("background frames", f"keep mask {keep.shape} differs from the "
+                                              f"frames' {(f, h, w)}")
+    frames = np.ascontiguousarray(frames)
+    step = -(-h // (4 * width()))        # a few blocks a thread: their costs differ
+    each(lambda r0: order_statistics(frames, keep, use_keep, bool(quartiles), med, count, sig,
+                                     r0, min(r0 + step, h)), range(0, h, step))
     return (med, count, sig) if quartiles else (med, count)
 
 
@@ -165,10 +148,11 @@ class PlateBackground:
                  shadow_chromaticity: float = _DEFAULT.shadow_chromaticity,
                  unknown_margin: bool = False):
         self.unknown_margin = bool(unknown_margin)
-        self.plate = _channels(np.asarray(plate, np.float32))
+        self.plate = np.ascontiguousarray(_channels(np.asarray(plate, np.float32)))
         h, w, c = self.plate.shape
         sigma = np.broadcast_to(np.asarray(sigma, np.float32), (h, w))
-        self.known = np.ones((h, w), bool) if known is None else np.asarray(known, bool)
+        self.known = (np.ones((h, w), bool) if known is None
+                      else np.ascontiguousarray(known, bool))
         if self.known.shape != (h, w):
             raise InputError("background", f"known mask {self.known.shape} differs from the "
                                            f"plate's {(h, w)}")
@@ -180,7 +164,8 @@ class PlateBackground:
         self.threshold = float(stats.chi2.isf(false_alarm, c))
         self._inv_var = (1.0 / self.sigma ** 2).astype(np.float32)
         self.shadows = bool(shadows)
-        self.shadow_brightness = tuple(shadow_brightness)
+        # Python floats: NumPy then compares the float32 α with them in float32, as the kernel
+        self.shadow_brightness = tuple(float(b) for b in shadow_brightness)
         self.shadow_chromaticity = float(shadow_chromaticity)
 
     @property
@@ -204,6 +189,23 @@ class PlateBackground:
     def foreground(self, image) -> np.ndarray:
         """Raw foreground (H, W) bool of one image: unlike the plate beyond noise, not a shadow,
         or never seen empty."""
+        img = _channels(np.asarray(image))
+        if img.dtype != np.uint8 or img.shape != self.plate.shape:
+            return self._foreground_numpy(image)   # another size (refused there) or channels
+        from ._plate_kernels import plate_foreground
+
+        img = np.ascontiguousarray(img)
+        f32 = np.float32
+        mask = np.empty(self.shape, bool)
+        # NumPy compares float32 arrays with Python floats in float32: so does the kernel
+        plate_foreground(img, self.plate, self._inv_var, self.known,
+                         f32(_gain(img, self.plate, self.known)), f32(self.threshold),
+                         self.shadows, f32(self.shadow_brightness[0]),
+                         f32(self.shadow_brightness[1]), f32(self.shadow_chromaticity), mask)
+        return mask
+
+    def _foreground_numpy(self, image) -> np.ndarray:
+        """:meth:`foreground` in NumPy: any channels (the kernel's reference in the tests)."""
         dist, g = self.distance(image)
         mask = dist > self.threshold
         if self.shadows and mask.any():
