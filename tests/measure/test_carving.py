@@ -323,7 +323,7 @@ def test_the_reach_dilation_on_the_silhouettes_box_is_opencvs_on_the_whole_image
     from voxelmocap.measure.carving import _dilated
 
     rng = np.random.default_rng(8)
-    for trial in range(30):
+    for _ in range(30):
         h, w = rng.integers(20, 90, 2)
         mask = np.zeros((h, w), np.uint8)
         for _ in range(rng.integers(0, 4)):          # blobs, some touching an edge

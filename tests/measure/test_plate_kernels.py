@@ -155,3 +155,59 @@ def test_the_foreground_kernel_on_a_real_frame_equals_numpy():
     known[h // 4:, w // 2 - 150:w // 2 + 150] = False
     bg = PlateBackground(first, 3.0, known)
     assert (bg.foreground(frame) == bg._foreground_numpy(frame)).all()
+
+
+def test_the_foreground_kernel_rounds_every_distance_as_numpy():
+    """A mask compares distances with one threshold, so it hides rounding: set the threshold to
+    a pixel's NumPy distance exactly, and to the float32 just below it, for many pixels."""
+    from voxelmocap.measure.plate import PlateBackground
+
+    rng = np.random.default_rng(12)
+    for channels in (1, 3):
+        plate, frame, known = _scene(rng, channels=channels)
+        image = frame[:, :, 0] if channels == 1 else frame
+        bg = PlateBackground(plate, rng.uniform(1.0, 6.0, plate.shape[:2]), known,
+                             shadows=False)
+        dist, _ = bg.distance(image)
+        for ij in rng.choice(dist.size, 40, replace=False):
+            d = dist.flat[ij]
+            for t in (d, np.nextafter(d, np.float32(-np.inf))):
+                bg.threshold = float(t)                  # the mask then hinges on this pixel
+                assert bg.foreground(image).flat[ij] == bg._foreground_numpy(image).flat[ij]
+
+
+def test_a_black_pixel_with_no_brightness_floor_is_foreground_as_in_numpy():
+    """α = 0 (a black pixel) passes a brightness range starting at 0; its chromaticity
+    distortion is 0/0 or x/0, which NumPy makes inf: not a shadow. The kernel must neither
+    raise nor call it a shadow."""
+    from voxelmocap.config import SilhouetteConfig
+    from voxelmocap.measure.plate import PlateBackground
+
+    plate = np.full((8, 8, 3), 100.0, np.float32)
+    plate[5, 5] = (100.0, 50.0, 10.0)
+    image = np.full((8, 8, 3), 100, np.uint8)
+    image[3, 3] = 0                                      # 0/0
+    image[5, 5] = 0
+    for chroma in (0.08, np.inf):
+        cfg = SilhouetteConfig(shadow_brightness=(0.0, 0.95))
+        bg = PlateBackground(plate, 1.0, shadow_brightness=cfg.shadow_brightness,
+                             shadow_chromaticity=chroma)
+        with np.errstate(all="ignore"):
+            want = bg._foreground_numpy(image)
+        got = bg.foreground(image)
+        assert (got == want).all()
+    assert got[3, 3] == want[3, 3]
+
+
+def test_four_channels_and_no_rows_take_the_numpy_path():
+    from voxelmocap.measure.plate import PlateBackground
+
+    rng = np.random.default_rng(2)
+    plate = rng.uniform(0, 255, (6, 7, 4)).astype(np.float32)
+    image = rng.integers(0, 256, (6, 7, 4), dtype=np.uint8)
+    bg = PlateBackground(plate, 2.0, shadows=False)
+    dist, _ = bg.distance(image)
+    bg.threshold = float(np.median(dist))
+    assert (bg.foreground(image) == (dist > np.float32(bg.threshold))).all()
+    med, count, sigma = masked_median(np.zeros((5, 0, 4, 3), np.uint8), quartiles=True)
+    assert med.shape == (0, 4, 3) and count.shape == sigma.shape == (0, 4)

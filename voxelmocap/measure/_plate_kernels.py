@@ -1,13 +1,20 @@
-"""Numba kernel of :func:`voxelmocap.measure.plate.masked_median`: per-pixel order statistics.
+"""Numba kernels of a learnt background plate (:mod:`voxelmocap.measure.plate`).
 
-The plate of a recording without background video is the per-pixel median of 60 sampled frames
-(and its noise the quartiles' spread), learnt once per pass and per camera: NumPy sorted each
-pixel's samples as uint16 blocks, a tenth of the Pose2Sim demo's CPU time. The samples are
-uint8, so a 256-bin histogram per pixel and channel gives every order statistic in one scan,
-without sorting and without the blocks' buffers. The interpolation between the two samples
-around a quantile, the σ's channel mean and the casts are NumPy's expressions, operation for
-operation, so the result is the same to the bit (``tests/measure/test_plate_kernels.py`` against
-the sorting reference).
+* :func:`order_statistics` — :func:`~voxelmocap.measure.plate.masked_median`'s per-pixel
+  order statistics. The plate of a recording without background video is the per-pixel median
+  of 60 sampled frames (its noise the quartiles' spread), learnt once per pass and per camera:
+  NumPy sorted each pixel's samples as uint16 blocks, a tenth of the Pose2Sim demo's CPU time.
+  The samples are uint8, so a histogram per pixel and channel gives every order statistic in
+  one scan, without sorting and without the blocks' buffers.
+* :func:`plate_foreground` — :meth:`~voxelmocap.measure.plate.PlateBackground.foreground`
+  without NumPy's whole-image temporaries (the distance, the shadow test's gathers).
+
+Both do NumPy's float arithmetic operation for operation (the interpolation between the samples
+around a quantile, the σ's channel mean, float32 sums over at most three channels in index
+order, the casts), so the results are the same to the bit: ``tests/measure/test_plate_kernels.py``
+holds them to the sorting and to ``PlateBackground._foreground_numpy``. Both are serial and free
+of the GIL: the cameras of a frame, and the plates of a pass's cameras, run in the threads of
+:mod:`.threads` (numba's own parallel launch may not run in two threads at once).
 """
 
 from __future__ import annotations
@@ -138,18 +145,24 @@ def order_statistics(frames, keep, use_keep, quartiles, med, count, sigma, r0, r
                     sigma[i, j] = np.float32(np.sqrt(acc / n_c))
 
 
-@njit(cache=True, nogil=True)
+#: float32's largest finite value: what ``np.nan_to_num`` makes of +inf
+_F32_MAX = np.float32(np.finfo(np.float32).max)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def plate_foreground(image, plate, inv_var, known, gain, threshold, shadows, low, high,
                      chromaticity, mask):
     """:meth:`~voxelmocap.measure.plate.PlateBackground.foreground` of one image, per pixel.
 
     NumPy's float32 expressions (the distance ``Σ_c (I_c − g P_c)² / σ²``, Horprasert's
-    brightness ``α`` and chromaticity distortion) in the same order, without the whole-image
-    temporaries; serial and free of the GIL (the cameras of a frame run in threads).
+    brightness ``α`` and chromaticity distortion) in the same order for at most three channels
+    (NumPy's einsum pairs the sums of four or more), without the whole-image temporaries.
+    Division by zero gives NumPy's inf or NaN (``error_model="numpy"``): a black pixel has
+    ``α = 0``.
 
     Parameters
     ----------
-    image : (H, W, C) uint8 ndarray
+    image : (H, W, C) uint8 ndarray, C <= 3
     plate : (H, W, C) float32 ndarray
     inv_var : (H, W) float32 ndarray
         1 / σ² per pixel.
@@ -189,8 +202,14 @@ def plate_foreground(image, plate, inv_var, known, gain, threshold, shadows, low
                             for c in range(n_c):
                                 r = np.float32(image[i, j, c]) - alpha * (gain * plate[i, j, c])
                                 r2 += r * r
-                            # NaN (no light at all) is no shadow, as NumPy's nan_to_num → inf
-                            shadow = np.sqrt(r2) / (alpha * np.sqrt(norm2)) <= chromaticity
+                            cd = np.sqrt(r2) / (alpha * np.sqrt(norm2))
+                            # the reference's nan_to_num(cd, nan=inf): NaN (α = 0 and no
+                            # residual) → inf, +inf (α = 0) → float32's largest value
+                            if cd != cd:
+                                cd = np.float32(np.inf)
+                            elif cd == np.inf:
+                                cd = _F32_MAX
+                            shadow = cd <= chromaticity
                         if shadow:
                             fg = False
             mask[i, j] = fg or not known[i, j]

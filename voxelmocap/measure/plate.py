@@ -100,7 +100,7 @@ def masked_median(frames: np.ndarray, keep: np.ndarray | None = None, *,
         raise InputError("background frames", f"keep mask {keep.shape} differs from the "
                                               f"frames' {(f, h, w)}")
     frames = np.ascontiguousarray(frames)
-    step = -(-h // (4 * width()))        # a few blocks a thread: their costs differ
+    step = max(1, -(-h // (4 * width())))    # a few blocks a thread: their costs differ
     each(lambda r0: order_statistics(frames, keep, use_keep, bool(quartiles), med, count, sig,
                                      r0, min(r0 + step, h)), range(0, h, step))
     return (med, count, sig) if quartiles else (med, count)
@@ -139,7 +139,8 @@ class PlateBackground:
         cameras' in threads (:meth:`~voxelmocap.measure.stage.MeasurementStage.masks`).
     """
 
-    #: numpy and OpenCV only: several cameras may be segmented at once
+    #: numpy, OpenCV and serial numba kernels free of the GIL: several cameras may be
+    #: segmented at once
     concurrent = True
 
     def __init__(self, plate, sigma, known=None, *, false_alarm: float = _DEFAULT.false_alarm,
@@ -190,8 +191,9 @@ class PlateBackground:
         """Raw foreground (H, W) bool of one image: unlike the plate beyond noise, not a shadow,
         or never seen empty."""
         img = _channels(np.asarray(image))
-        if img.dtype != np.uint8 or img.shape != self.plate.shape:
-            return self._foreground_numpy(image)   # another size (refused there) or channels
+        if img.dtype != np.uint8 or img.shape != self.plate.shape or img.shape[2] > 3:
+            # another size (refused there), other channels, or four (NumPy pairs their sums)
+            return self._foreground_numpy(image)
         from ._plate_kernels import plate_foreground
 
         img = np.ascontiguousarray(img)

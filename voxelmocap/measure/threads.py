@@ -1,12 +1,13 @@
 """Independent pieces of measurement work run side by side: one camera's silhouette, one block
 of a plate's rows.
 
-GrabCut, morphology and numpy's sort run on one core each and release the GIL, so the cameras
-of a frame (or the row blocks of a median) are done by a small pool of threads. The pool is as
-wide as OpenCV's own thread count (``cv2.getNumThreads()``, which ``OPENCV_FOR_THREADS_NUM`` and
-``cv2.setNumThreads`` set), so whoever limits OpenCV's threads limits these too. Each piece is
-a pure function of its inputs — GrabCut's k-means start is seeded in the thread that runs it
-(OpenCV's generator is per thread) — so the results do not depend on the width.
+GrabCut, morphology and the plate's numba kernels run on one core each and release the GIL, so
+the cameras of a frame (or the row blocks of a median) are done by a small pool of threads. The
+pool is as wide as OpenCV's own thread count (``cv2.getNumThreads()``, which
+``OPENCV_FOR_THREADS_NUM`` and ``cv2.setNumThreads`` set), so whoever limits OpenCV's threads
+limits these too. Each piece is a pure function of its inputs — GrabCut's k-means start is
+seeded in the thread that runs it (OpenCV's generator is per thread) — so the results do not
+depend on the width.
 
 Work handed out from a worker thread runs in that thread, one piece after another: the pool
 is never waited on by its own workers. A process forked from one that used the pool starts
