@@ -392,10 +392,6 @@ class InitConfig(Section):
     body: str = setting("fitted", "body size without a body file or ground truth: scaled to the "
                         "voxels' height, the average adult, or fitted to the voxels",
                         choices=("voxels", "average", "fitted"))
-    body_height_frames: int = setting(
-        1, "`fitted` body: the average adult is scaled to the median voxel height of this many "
-        "first frames of the kept start before the fit (1: the first frame's; at most "
-        "`multistart_frames`)", unit="frames", ge=1)
     settle_steps: int = setting(5, "extra filter steps on the first frame before it is recorded",
                                 ge=0)
     limb_sweep: bool = setting(True, "search each starting pose's four limbs over their whole "

@@ -206,31 +206,3 @@ def test_track_with_a_fitted_body_records_it_and_resumes(walk_without_answer, tm
     b = read_result(resumed.result_path)
     np.testing.assert_array_equal(result.state, b.state)
     assert b.attrs["body_dimensions"] == result.attrs["body_dimensions"]
-
-
-def test_refit_from_another_base_keeps_that_height_and_carries_the_poses_over():
-    """The start's body scaled to one frame's height (1500 mm) against a 1700 mm truth: refit
-    from a base of 1700 mm keeps 1700 and scores the frames better than the refit that keeps
-    1500 (the poses carried over: the pelvis raised in proportion, the limbs re-aimed)."""
-    import types
-
-    from voxelmocap.pose.body_size import refit_start
-    from voxelmocap.pose.tracker import BodyTracker
-
-    truth = BodyDimensions.average(1700.0)
-    observations, true_poses = _cone_frames(truth, n_frames=3, seed=4)
-    short = BodyModel(BodyDimensions.average(1500.0))
-    poses = np.array([fit_to_landmarks(short, lm) for lm in BodyModel(truth).landmarks(true_poses)])
-    config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 60})
-    records = [types.SimpleNamespace(state=x, frame=k + 1) for k, x in enumerate(poses)]
-    fits = {}
-    for base in (None, BodyModel(truth)):
-        tracker = BodyTracker(short, config, seed=0)
-        new, out, checkpoints, fit = refit_start(tracker, observations, records, config, 0,
-                                                 n_fit=3, base=base)
-        assert len(out) == len(checkpoints) == 3
-        assert new.model.dimensions.height == pytest.approx(fit.dimensions.height)
-        fits[base is None] = fit
-    assert fits[True].dimensions.height == pytest.approx(1500.0)
-    assert fits[False].dimensions.height == pytest.approx(1700.0)
-    assert fits[False].log_likelihood > fits[True].log_likelihood

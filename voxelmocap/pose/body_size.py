@@ -425,7 +425,7 @@ START_COVERAGE = 10.0
 
 
 def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
-                coverage: float | None = None, base=None):
+                coverage: float | None = None):
     """Fit the body on the frames tracked so far and track them again with it.
 
     Parameters
@@ -443,11 +443,6 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
         Frames (spread over the tracked ones) the lengths are fitted on.
     coverage : float, optional
         Weight of the coverage term (default :data:`START_COVERAGE`).
-    base : BodyModel, optional
-        The body the fit starts from and whose height it keeps (default the tracker's): e.g. the
-        average adult scaled to the median height of several frames when the tracker's was
-        scaled to one frame's. The records' poses are carried over to it: the pelvis height in
-        proportion to the standing heights, each limb re-aimed (:func:`retarget`).
 
     Returns
     -------
@@ -466,14 +461,8 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
     pick = pick_frames(len(records), n_fit)
     if pick[0] != 0:
         pick = np.r_[0, pick]
-    states = np.array([records[i].state for i in pick], dtype=float)
-    if base is not None:
-        ratio = float(base.dimensions.height) / float(tracker.model.dimensions.height)
-        states[:, 2] *= ratio             # Z up from the floor: a standing pelvis scales
-        states = retarget(tracker.model, base, states)
-    else:
-        base = tracker.model
-    fit = fit_body_dimensions([observations[i] for i in pick], states, base.dimensions,
+    fit = fit_body_dimensions([observations[i] for i in pick],
+                              [records[i].state for i in pick], tracker.model.dimensions,
                               variances=tracker.variances,
                               coverage=START_COVERAGE if coverage is None else coverage)
     new = BodyTracker(BodyModel(fit.dimensions), config, seed=seed, frame_rate=tracker.frame_rate)

@@ -337,43 +337,14 @@ class PassRun:
                 recorder(record, None)
         return records, checkpoints
 
-    def _median_height_body(self, records):
-        """The average adult scaled to the median voxel height of the kept start's first
-        ``[init] body_height_frames`` frames, when the body was scaled to the first frame's
-        alone and the median differs (None otherwise): one frame's carving can lose the head
-        (the Pose2Sim demo measured at half size: 1440 mm on frame 1, 1720 on frames 2 and 3)."""
-        n = min(int(self.config.init.body_height_frames), len(records))
-        if n <= 1 or not str(self.meta.get("body_model", "")).startswith("average adult scaled"):
-            return None
-        heights = []
-        for obs, rec in zip(self.start_observations[:n], records[:n], strict=True):
-            try:
-                heights.append(voxel_height(obs, rec.frame))
-            except InputError:            # a frame of the start without voxels: not measured
-                continue
-        if not heights:
-            return None
-        height = float(np.median(heights))
-        if height == float(self.model.dimensions.height):
-            return None
-        model, _ = sized_model(height, None)
-        frames = f"frames {int(records[0].frame)}–{int(records[n - 1].frame)}"
-        self.meta["body_model"] = (f"average adult scaled to {height:.0f} mm, the median height "
-                                   f"of the voxels of {frames} (the first: "
-                                   f"{float(self.model.dimensions.height):.0f} mm)")
-        self.meta["body_height_mm"] = height
-        return model
-
     def _fit_body(self, records):
         """:func:`voxelmocap.pose.body_size.refit_start` on the kept start's frames: the new
         tracker, its records and checkpoints of those frames (``meta`` records the body)."""
         from ..pose.body_size import dimensions_to_json, refit_start
 
         t0 = time.perf_counter()
-        base = self._median_height_body(records)
         tracker, records, checkpoints, fit = refit_start(
-            self.tracker, self.start_observations, records, self.config, self.request.seed,
-            base=base)
+            self.tracker, self.start_observations, records, self.config, self.request.seed)
         seconds = time.perf_counter() - t0
         dims = fit.dimensions
         meta = self.meta
