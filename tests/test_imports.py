@@ -95,7 +95,7 @@ def test_no_import_cycle_in_the_package():
 #: ``docs/architecture.md`` draws the same order.
 LAYERS = (
     ("foundations", ("errors", "logs", "joints", "frames", "smoothing", "portable",
-                     "_portable_kernels", "cpu_paths", "camera", "grid", "evaluation", "body",
+                     "_portable_kernels", "cpu_paths", "thread_waits", "camera", "grid", "evaluation", "body",
                      "tracking")),
     ("io", ("io",)),
     ("config", ("config", "_config_schema")),

@@ -19,11 +19,13 @@ import logging
 import os
 import sys
 
-from . import __version__, cpu_paths
+from . import __version__, cpu_paths, thread_waits
 
 # Before anything imports NumPy: the same NumPy loops and OpenBLAS kernels on every machine
 # (a tracked result must not depend on the CPU; voxelmocap.cpu_paths)
 PINNED = cpu_paths.pin()
+# Before numba loads its OpenMP layer: idle workers sleep (voxelmocap.thread_waits)
+WAITS = thread_waits.passive()
 
 from .errors import VoxelmocapError  # noqa: E402
 

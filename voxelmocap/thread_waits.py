@@ -1,0 +1,49 @@
+"""Idle worker threads that sleep instead of spinning: OpenMP's wait policy, set before numba loads.
+
+numba runs its parallel kernels (the likelihood, the silhouette cue, the carving) on its OpenMP
+threading layer, and OpenMP's worker threads by default keep spinning for a while after each
+parallel region in case another one follows. The tracker alternates thousands of short parallel
+regions with work on other threads (GrabCut and the silhouettes on the measurement's pool,
+:mod:`voxelmocap.measure.threads`), so the spinning workers take the cores that work needs; and
+two runs on one machine spin against each other. Measured on the Pose2Sim demo's 10 frames
+(``docs/benchmarks.md``, "Speed"): two runs side by side on 2 cores took 377 s each by default and
+135 s with the workers sleeping; the results are the same bit for bit (the wait policy only
+decides what an idle thread does).
+
+:func:`passive` sets ``OMP_WAIT_POLICY = PASSIVE`` (the OpenMP standard's variable, read by GNU
+and LLVM/Intel OpenMP when they load) unless the user set it. The ``voxelmocap`` command calls it
+first thing (:mod:`voxelmocap.cli`); local Dask workers inherit it. A program importing
+voxelmocap sets the variable itself (before the first parallel kernel runs).
+
+This module imports nothing but the standard library.
+"""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["WAIT_POLICY", "passive"]
+
+#: The variable and the value :func:`passive` sets.
+WAIT_POLICY = ("OMP_WAIT_POLICY", "PASSIVE")
+
+
+def passive(environ=None) -> dict[str, str]:
+    """Ask OpenMP's idle worker threads to sleep (``OMP_WAIT_POLICY``), unless already chosen.
+
+    Parameters
+    ----------
+    environ : mutable mapping, optional
+        Where to set it (default ``os.environ``, which C libraries loaded later read).
+
+    Returns
+    -------
+    dict
+        The variable this call set (empty when it was set already).
+    """
+    env = os.environ if environ is None else environ
+    name, value = WAIT_POLICY
+    if name in env:
+        return {}
+    env[name] = value
+    return {name: value}
