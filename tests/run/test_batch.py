@@ -118,39 +118,3 @@ def test_run_tasks_keeps_going_or_stops():
         ("a", True, 32, None), ("b", False, None, "ValueError: bad 3"), ("c", True, 9, None)]
     with pytest.raises(ValueError, match="bad 3"):
         run_tasks([("b", _fails, (3,))], local=True, progress=False, stop_on_error=True)
-
-
-def _thread_counts():
-    import cv2
-    import numba
-
-    from voxelmocap.measure.threads import width
-
-    return numba.get_num_threads(), cv2.getNumThreads(), width()
-
-
-def test_worker_threads_share_the_cores_and_keep_what_the_user_set():
-    from voxelmocap.run.tasks import THREAD_VARIABLES, worker_threads
-
-    assert worker_threads(2, environ={}, cores=2) == dict.fromkeys(THREAD_VARIABLES, "1")
-    assert worker_threads(2, environ={}, cores=8) == dict.fromkeys(THREAD_VARIABLES, "4")
-    assert worker_threads(3, environ={}, cores=8) == dict.fromkeys(THREAD_VARIABLES, "2")
-    assert worker_threads(4, environ={}, cores=2) == dict.fromkeys(THREAD_VARIABLES, "1")
-    assert worker_threads(2, environ={"NUMBA_NUM_THREADS": "2"}, cores=2) == \
-        {"OPENCV_FOR_THREADS_NUM": "1"}
-
-
-def test_local_workers_run_numba_and_opencv_on_their_share_of_the_cores(monkeypatch):
-    """Two local workers on this machine: each with cores // 2 threads (at least 1) in numba,
-    OpenCV and the measurement's pool, as ``os.sched_getaffinity`` counts the cores."""
-    import os
-
-    pytest.importorskip("distributed")
-    from voxelmocap.run.tasks import THREAD_VARIABLES
-
-    for name in THREAD_VARIABLES:
-        monkeypatch.delenv(name, raising=False)
-    share = max(1, len(os.sched_getaffinity(0)) // 2)
-    outcomes = run_tasks([("a", _thread_counts, ()), ("b", _thread_counts, ())], n_workers=2,
-                         progress=False)
-    assert [o.value for o in outcomes] == [(share, share, share)] * 2

@@ -3,8 +3,7 @@
 A caller plans its tasks, drops those already finished (it knows how: a sweep cell's score file,
 a sequence's complete result) and hands the rest to :func:`run_tasks`: one Dask task each, on an
 existing cluster (``scheduler``: its address) or on a local cluster of single-threaded worker
-processes started for the call and closed after it (each worker's numba and OpenCV threads its
-share of the cores, :func:`worker_threads`); or one after another in this process when
+processes started for the call and closed after it; or one after another in this process when
 neither is given and ``local=True``. Results come back as they finish, under a progress bar;
 each task's outcome is a :class:`TaskOutcome` (its value, or the one-line reason it failed), so
 one failing task does not stop the others unless ``stop_on_error``.
@@ -27,11 +26,7 @@ from typing import Any
 
 from ..errors import InputError
 
-__all__ = ["THREAD_VARIABLES", "TaskOutcome", "run_tasks", "worker_threads"]
-
-#: The thread counts a local worker process starts with (read by numba and OpenCV as they
-#: load; the measurement's own pool follows OpenCV's, ``voxelmocap.measure.threads``).
-THREAD_VARIABLES = ("NUMBA_NUM_THREADS", "OPENCV_FOR_THREADS_NUM")
+__all__ = ["TaskOutcome", "run_tasks"]
 
 logger = logging.getLogger(__name__)
 
@@ -153,7 +148,7 @@ def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, report) -> list[Tas
         # the dashboard on any free port: None still binds the default 8787 (and warns, or
         # fails under warnings-as-errors, when another Dask session already holds it)
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", env=worker_threads(workers))
+                               dashboard_address=":0")
         client = Client(cluster)
     outcomes = []
     try:
@@ -173,38 +168,6 @@ def _run_on_dask(tasks, scheduler, n_workers, stop_on_error, report) -> list[Tas
         if cluster is not None:
             cluster.close()
     return outcomes
-
-
-def worker_threads(workers: int, environ=None, cores: int | None = None) -> dict[str, str]:
-    """The environment that gives each of ``workers`` local processes its share of the cores.
-
-    Every process would otherwise start numba's and OpenCV's pools one thread per core, and
-    ``workers`` such processes on those cores spin-wait against each other: two demo runs side
-    by side on 2 cores each took three times the CPU of a run alone (``docs/benchmarks.md``,
-    "Speed"). Dask sets ``OMP_NUM_THREADS`` = 1 for its workers, which numba does not read.
-    The results do not depend on the thread counts (``tests/run/test_reproducible.py``).
-
-    Parameters
-    ----------
-    workers : int
-        Worker processes sharing this machine.
-    environ : mapping, optional
-        The environment the workers inherit (default ``os.environ``): a variable set there is
-        the user's choice and is left out.
-    cores : int, optional
-        Cores this process may run on (default: its CPU affinity).
-
-    Returns
-    -------
-    dict of str to str
-        :data:`THREAD_VARIABLES` not set in ``environ``, each ``max(1, cores // workers)``.
-    """
-    environ = os.environ if environ is None else environ
-    if cores is None:
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
-            (os.cpu_count() or 1)
-    share = str(max(1, int(cores) // max(1, int(workers))))
-    return {name: share for name in THREAD_VARIABLES if name not in environ}
 
 
 def _report(outcome: TaskOutcome, *, bar, on_outcome) -> TaskOutcome:
