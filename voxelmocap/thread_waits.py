@@ -2,13 +2,12 @@
 
 numba runs its parallel kernels (the likelihood, the silhouette cue, the carving) on its OpenMP
 threading layer, and OpenMP's worker threads by default keep spinning for a while after each
-parallel region in case another one follows. The tracker alternates thousands of short parallel
-regions with work on other threads (GrabCut and the silhouettes on the measurement's pool,
-:mod:`voxelmocap.measure.threads`), so the spinning workers take the cores that work needs; and
-two runs on one machine spin against each other. Measured on the Pose2Sim demo's 10 frames
+parallel region in case another one follows. A run makes thousands of short parallel regions,
+and with another process on the machine (a second run, other work) the spinning workers take
+the cores the other's work needs. Measured on the Pose2Sim demo's 10 frames
 (``docs/benchmarks.md``, "Speed"): two runs side by side on 2 cores took 377 s each by default and
-135 s with the workers sleeping; the results are the same bit for bit (the wait policy only
-decides what an idle thread does).
+135 s with the workers sleeping; a run alone took the same time either way. The results are the
+same bit for bit (the wait policy only decides what an idle thread does).
 
 :func:`passive` sets ``OMP_WAIT_POLICY = PASSIVE`` (the OpenMP standard's variable, read by GNU
 and LLVM/Intel OpenMP when they load) unless the user set it. The ``voxelmocap`` command calls it
