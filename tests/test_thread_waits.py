@@ -6,21 +6,21 @@ import os
 import subprocess
 import sys
 
-import numpy as np
-
 from voxelmocap import thread_waits
 
-# A parallel kernel of the package on seeded data, its outputs printed as bytes (run in a fresh
-# process, so that OpenMP reads the policy as it loads).
-KERNEL = """
+# Seeded inputs of a parallel kernel of the package (run here and in fresh processes).
+DATA = """
 import numpy as np
-import voxelmocap.cli  # sets the policy unless given
 from voxelmocap.measure import _silhouette_kernels as sk
 rng = np.random.default_rng(3)
 points = rng.uniform(-20, 180, (300, 9, 16, 2))
 valid = rng.random((300, 9)) > 0.1
 mask = rng.random((120, 160)) > 0.5
 hit, extra = np.empty(300, np.int64), np.empty(300, np.int64)
+"""
+# The kernel in a fresh process, so that OpenMP reads the policy as it loads; its outputs
+# printed as bytes.
+KERNEL = "import voxelmocap.cli  # sets the policy unless given\n" + DATA + """
 for _ in range(50):
     sk.cover_counts(points, valid, mask, hit, extra)
 import os, numba
@@ -51,13 +51,9 @@ def test_the_command_sleeps_idle_workers_and_the_results_do_not_change():
     default, active = _kernel(None), _kernel("ACTIVE")
     assert default[0] == "PASSIVE" and active[0] == "ACTIVE"
     assert default[2:] == active[2:]
-    from voxelmocap.measure import _silhouette_kernels as sk
-
-    rng = np.random.default_rng(3)
-    points = rng.uniform(-20, 180, (300, 9, 16, 2))
-    valid = rng.random((300, 9)) > 0.1
-    mask = rng.random((120, 160)) > 0.5
-    hit, extra = np.empty(300, np.int64), np.empty(300, np.int64)
-    sk.cover_counts(points, valid, mask, hit, extra)
+    here = {}
+    exec(DATA, here)
+    hit, extra = here["hit"], here["extra"]
+    here["sk"].cover_counts(here["points"], here["valid"], here["mask"], hit, extra)
     assert [hit.tobytes().hex(), extra.tobytes().hex()] == default[2:]
     assert hit.sum() > 0 and extra.sum() > 0

@@ -25,7 +25,7 @@ from . import __version__, cpu_paths, thread_waits
 # (a tracked result must not depend on the CPU; voxelmocap.cpu_paths)
 PINNED = cpu_paths.pin()
 # Before numba loads its OpenMP layer: idle workers sleep (voxelmocap.thread_waits)
-WAITS = thread_waits.passive()
+thread_waits.passive()
 
 from .errors import VoxelmocapError  # noqa: E402
 
