@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from voxelmocap.body import BodyModel, fit_to_landmarks
-from voxelmocap.body.shapes import BodyDimensions
+from voxelmocap.body.shapes import ANKLE_HEIGHT_SHARE, BodyDimensions
 from voxelmocap.body.state import STATE_INDEX
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.errors import InputError
@@ -15,7 +15,10 @@ from voxelmocap.pose.body_size import (
     dimensions_to_json,
     fit_body_dimensions,
     pick_frames,
+    posed_height_share,
+    rescaled,
     standing_height,
+    standing_height_from_poses,
 )
 from voxelmocap.score.likelihood import VoxelObservation, rasterise
 
@@ -127,6 +130,126 @@ def _cone_case(factors):
 def _length_errors(dims, truth) -> dict:
     """|fitted − true| (mm, mean of left and right) of every fitted length."""
     return {k: abs(np.mean(getattr(dims, k)) - np.mean(getattr(truth, k))) for k in FITTED_KEYS}
+
+
+def test_posed_height_share_is_one_upright_and_follows_the_knees_in_closed_form():
+    model = BodyModel.scaled(1700.0)
+    up = model.default_state()
+    bent = up.copy()
+    bent[STATE_INDEX["l_knee"]] = bent[STATE_INDEX["r_knee"]] = 0.6   # thighs vertical
+    one_bent = bent.copy()
+    one_bent[STATE_INDEX["r_knee"]] = 0.0        # the straight leg's sole is the lower one
+    share = posed_height_share(model, np.stack([up, bent, one_bent]))
+    shin = np.mean(model.dimensions.shin)
+    # the default pose's chain is the height's to 1e-4 (measured 6e-5)
+    assert share[0] == pytest.approx(1.0, abs=1e-4)
+    assert share[1] == pytest.approx(1.0 - shin * (1.0 - np.cos(0.6)) / 1700.0, abs=1e-4)
+    assert share[2] == pytest.approx(share[0], abs=1e-9)
+    # the share does not depend on the size the pose is drawn with
+    small = BodyModel.scaled(1500.0)
+    assert posed_height_share(small, bent[None])[0] == pytest.approx(share[1], abs=1e-9)
+
+
+def _column(height_mm, grid):
+    """A column of voxels 100 mm in radius from the floor to ``height_mm`` (a head-sized
+    section at its top), as :func:`voxelmocap.measure.detect.find_extremities` measures it."""
+    c = grid.centres().reshape(*grid.shape, 3)
+    occ = (np.hypot(c[..., 0], c[..., 1]) <= 100.0) & (c[..., 2] < height_mm)
+    return VoxelObservation(occ, grid)
+
+
+def test_standing_height_is_the_tightest_voxel_height_over_the_pose_share():
+    grid = VoxelGrid((-300.0, -300.0, 0.0), 20.0, (30, 30, 110))
+    model = BodyModel.scaled(1500.0)     # the size the poses were tracked with: irrelevant
+    up = model.default_state()
+    crouch = up.copy()
+    crouch[STATE_INDEX["l_knee"]] = crouch[STATE_INDEX["r_knee"]] = 0.8
+    share = posed_height_share(model, crouch[None])[0]
+    # frame 1 crouches in 1400 mm of voxels; frame 2 stands upright in 1560 mm (a hand on the
+    # head: the hull is an upper bound of the person) -> the crouch's 1400 / share
+    obs = [_column(1400.0, grid), _column(1560.0, grid)]
+    height = standing_height_from_poses(model, obs, np.stack([crouch, up]))
+    assert height == pytest.approx(1400.0 / share, rel=1e-9)
+    assert 1400.0 / share < 1560.0 / posed_height_share(model, up[None])[0]
+    # a frame whose head did not carve (a head's length lower than the others) is left out
+    headless = _column(1400.0 * 0.85, grid)
+    assert standing_height_from_poses(model, obs + [headless], np.stack([crouch, up, crouch])) \
+        == pytest.approx(1400.0 / share, rel=1e-9)
+    # clipped into the plausible range; no voxels at all -> None
+    assert standing_height_from_poses(model, obs[:1], crouch[None],
+                                      height_range=(1400.0, 1450.0)) == 1450.0
+    empty = VoxelObservation(np.zeros(grid.shape, bool), grid)
+    assert standing_height_from_poses(model, [empty], up[None]) is None
+
+
+def test_rescaled_keeps_the_angles_and_the_soles_on_the_floor():
+    dims = BodyDimensions.average(1600.0)
+    model = BodyModel(dims)
+    x = model.default_state()
+    x[STATE_INDEX["l_knee"]] = 0.5
+    x[[0, 1]] = (120.0, -40.0)
+    big, states = rescaled(dims, x[None], 1760.0)
+    assert big.height == pytest.approx(1760.0)
+    np.testing.assert_array_equal(states[0, 3:], x[3:])
+    before = model.landmarks(x[None])[0]
+    after = BodyModel(big).landmarks(states)[0]
+    # every landmark's height scales by 1.1 about the floor (z = 0)
+    np.testing.assert_allclose(after[:, 2], before[:, 2] * 1.1, rtol=1e-9)
+    assert x[2] == model.default_state()[2]      # the input is not modified
+
+
+def _crouched_frames(truth, grid, knees):
+    """A cone body crouched on the floor (one frame per knee angle, hips flexed half as much),
+    with a block of voxels under each ankle for the feet the cones lack."""
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    model = BodyModel(truth)
+    ankles = [LANDMARK_NAMES.index("l_ankle"), LANDMARK_NAMES.index("r_ankle")]
+    sole = ANKLE_HEIGHT_SHARE * truth.height
+    c = grid.centres().reshape(*grid.shape, 3)
+    frames, poses = [], []
+    for knee in knees:
+        x = model.default_state()
+        for side in "lr":
+            x[STATE_INDEX[f"{side}_knee"]] = knee
+            x[STATE_INDEX[f"{side}_hip_flex"]] = knee / 2
+        x[2] -= model.landmarks(x[None])[0, ankles, 2].min() - sole
+        occ = rasterise(model, x[None], grid) > 0
+        for a in model.landmarks(x[None])[0, ankles]:
+            occ |= (np.hypot(c[..., 0] - a[0], c[..., 1] - a[1]) < 50.0) & (c[..., 2] < a[2])
+        frames.append(VoxelObservation(occ, grid))
+        poses.append(x)
+    return frames, np.array(poses)
+
+
+def test_refit_start_keeps_the_height_the_crouched_poses_imply():
+    """A person of 1700 mm crouched in every start frame: frame 1's voxels stand 1600 mm.
+    Posed with the average adult of that height (inverse kinematics to the true landmarks: a
+    shorter body straightens its legs, so the share reads high) and fitted at both heights, the
+    one the voxels over the poses' share imply wins (measured: 1668 mm, summed log-likelihood
+    −1.5 against −3.8)."""
+    from types import SimpleNamespace
+
+    from voxelmocap.measure.detect import find_extremities
+    from voxelmocap.pose.body_size import refit_start
+    from voxelmocap.pose.tracker import BodyTracker
+
+    truth = BodyDimensions.average(1700.0)
+    grid = VoxelGrid((-700.0, -700.0, 0.0), 20.0, (70, 70, 95))
+    observations, true_poses = _crouched_frames(truth, grid, [1.0, 1.1, 1.2])
+    low = find_extremities(observations[0].occupancy, grid, max_extremities=0).height_mm
+    assert 1450.0 < low < 1650.0
+    start = BodyModel(BodyDimensions.average(low))
+    poses = [fit_to_landmarks(start, lm) for lm in BodyModel(truth).landmarks(true_poses)]
+    records = [SimpleNamespace(state=x, frame=i + 1) for i, x in enumerate(poses)]
+    config = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 60})
+    tracker = BodyTracker(start, config, seed=0)
+    _, out, _, fit = refit_start(tracker, observations, records, config, seed=0)
+    assert fit.other is not None
+    assert fit.other.dimensions.height == pytest.approx(low)
+    assert fit.log_likelihood > fit.other.log_likelihood
+    assert abs(fit.dimensions.height - 1700.0) < 0.5 * abs(low - 1700.0), (fit.dimensions.height, low)
+    assert len(out) == 3
 
 
 def test_fit_recovers_the_lengths_of_a_rendered_cone_body():

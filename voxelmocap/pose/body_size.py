@@ -22,11 +22,13 @@ observable; frames spread over the first ones are used. The factors are bounded 
 :data:`FACTOR_RANGES` (a plausible adult range around the average), the widths stay those of the
 average adult at the voxel height.
 
-:func:`refit_start` is the tracker's side: fit on the frames tracked so far, then track those
-frames again from the fitted first pose with the fitted body, so that every recorded frame comes
-from the final body. The runner (:func:`voxelmocap.run.pipeline.track_sequence`) calls it when
-``[init] body = "fitted"``; the dimensions are stored in the result file (``body_dimensions``)
-and re-read on ``--resume``.
+:func:`refit_start` is the tracker's side: fit on the frames tracked so far, at frame 1's
+voxel height and at the standing height the frames' voxels and poses imply
+(:func:`standing_height_from_poses`: a crouch or a stride in frame 1 does not then shrink the
+body), keep the fit that explains the frames better, then track them again from the fitted first
+pose with the fitted body, so that every recorded frame comes from the final body. The runner
+(:func:`voxelmocap.run.pipeline.track_sequence`) calls it when ``[init] body = "fitted"``; the
+dimensions are stored in the result file (``body_dimensions``) and re-read on ``--resume``.
 
 >>> dims = BodyDimensions.average(1700.0)
 >>> d2 = dimensions_from_factors(dims, np.ones(len(FITTED_KEYS)))
@@ -36,6 +38,7 @@ and re-read on ``--resume``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import asdict, dataclass
 
@@ -53,10 +56,11 @@ from ..score.likelihood import (
     scores_from_counts,
 )
 
-__all__ = ["DEFAULT_FIT_KEYS", "FACTOR_RANGES", "FITTED_KEYS", "HEIGHT_KEYS", "START_COVERAGE",
-           "BodyFit", "compass_combined", "dimensions_from_factors", "dimensions_from_json",
-           "dimensions_to_json", "fit_body_dimensions", "pick_frames", "refit_start",
-           "standing_height"]
+__all__ = ["DEFAULT_FIT_KEYS", "FACTOR_RANGES", "FITTED_KEYS", "HEIGHT_AGREEMENT", "HEIGHT_KEYS",
+           "HEIGHT_RANGE_MM", "START_COVERAGE", "BodyFit", "compass_combined",
+           "dimensions_from_factors", "dimensions_from_json", "dimensions_to_json",
+           "fit_body_dimensions", "pick_frames", "posed_height_share", "refit_start", "rescaled",
+           "standing_height", "standing_height_from_poses"]
 
 #: The fitted skeleton lengths (fields of :class:`BodyDimensions`); pairs keep left = right.
 FITTED_KEYS: tuple[str, ...] = ("torso", "head", "shoulder_offset", "shoulder_drop",
@@ -74,6 +78,14 @@ FACTOR_RANGES: dict[str, tuple[float, float]] = {
     "upper_arm": (0.8, 1.2), "forearm": (0.7, 1.2),
     "thigh": (0.8, 1.2), "shin": (0.8, 1.2),
 }
+#: Plausible standing heights (mm). The voxels' vertical extent is the height of a standing
+#: person; raised arms or a crouch move it, and outside this range it is more likely that than
+#: a person of that size.
+HEIGHT_RANGE_MM = (1400.0, 2100.0)
+#: How far below the median of a few frames' standing heights one may read and still count
+#: (share of it): a pose's share and the voxels' crown are a few percent off; a head that did
+#: not carve is about 15 % (:func:`standing_height_from_poses`).
+HEIGHT_AGREEMENT = 0.05
 #: The lengths of the standing chain, head top to ankle (:func:`standing_height`).
 HEIGHT_KEYS: tuple[str, ...] = ("torso", "head", "hip_drop", "thigh", "shin")
 #: The lengths fitted by default: all but the forearm. On the rendered benchmark subjects the
@@ -109,6 +121,10 @@ class BodyFit:
         The same for the starting body and poses.
     evaluations : int
         Likelihood evaluations spent (one state of one frame each).
+    other : BodyFit or None
+        :func:`refit_start`'s fit at the other standing height (the voxels' of frame 1, or
+        the one the poses imply), which explained the frames less well; ``None`` when only one
+        was fitted.
     """
 
     dimensions: BodyDimensions
@@ -117,6 +133,7 @@ class BodyFit:
     log_likelihood: float
     start_log_likelihood: float
     evaluations: int
+    other: BodyFit | None = None
 
 
 def standing_height(dims: BodyDimensions) -> float:
@@ -420,6 +437,84 @@ def fit_body_dimensions(observations, states, base: BodyDimensions, *,
     return BodyFit(dims, ratios, states, f_total, start, used)
 
 
+def posed_height_share(model, states) -> np.ndarray:
+    """How much of its standing height each pose stands: head top to the lower sole, over
+    the standing height.
+
+    1 for the upright pose; a crouch, bent knees or a lean lower it (a jogger's stride:
+    about 0.9). The soles are :data:`ANKLE_HEIGHT_SHARE` of the height below the ankles.
+
+    Parameters
+    ----------
+    model : BodyModel
+    states : (P, 27) array_like
+
+    Returns
+    -------
+    (P,) float64 ndarray
+    """
+    from ..joints import LANDMARK_NAMES
+
+    lm = model.landmarks(np.array(states, dtype=float, ndmin=2))
+    head, ankles = LANDMARK_NAMES.index("head"), [LANDMARK_NAMES.index("l_ankle"),
+                                                   LANDMARK_NAMES.index("r_ankle")]
+    height = model.dimensions.height
+    return (lm[:, head, 2] - lm[:, ankles, 2].min(axis=1)) / height + ANKLE_HEIGHT_SHARE
+
+
+def standing_height_from_poses(model, observations, states, *,
+                               height_range=HEIGHT_RANGE_MM) -> float | None:
+    """The standing height the voxels and the poses tracked in them imply (mm).
+
+    Each frame's voxels stand :attr:`~voxelmocap.measure.detect.Extremities.height_mm` high, a
+    pose that stands :func:`posed_height_share` of the standing height; their ratio is the
+    standing height, whatever the size the poses were tracked with (the share does not depend
+    on it). The smallest over the frames within :data:`HEIGHT_AGREEMENT` of their median: the
+    visual hull contains the person, so each frame's height is an upper bound (a hand near the
+    head top reads as crown: +40–60 mm on a waving clip) and the tightest one is kept, but a
+    frame whose head did not carve reads a head's length lower, and is left out. ``None`` when
+    no frame has voxels. Frame 1's voxel
+    height alone measures a crouch, not the person: a jog's first frame stands 0.9 of the
+    runner's height, and a body scaled to it kept the ankles 90–100 mm high.
+
+    Parameters
+    ----------
+    model : BodyModel
+        The body the states were tracked with.
+    observations : sequence of VoxelObservation
+    states : (F, 27) array_like
+        One pose per observation.
+    height_range : (float, float)
+        Plausible standing heights (mm); the result is clipped into it.
+
+    Returns
+    -------
+    float or None
+    """
+    from ..measure.detect import find_extremities
+
+    shares = posed_height_share(model, states)
+    heights = []
+    for obs, share in zip(observations, shares, strict=True):
+        ex = find_extremities(obs.occupancy, obs.grid, max_extremities=0)
+        if ex is not None and share > 0:
+            heights.append(ex.height_mm / share)
+    if not heights:
+        return None
+    heights = np.array(heights)
+    agree = heights[heights >= (1.0 - HEIGHT_AGREEMENT) * np.median(heights)]
+    return float(np.clip(agree.min(), *height_range))
+
+
+def rescaled(dims: BodyDimensions, states, height: float):
+    """``dims`` scaled to ``height`` and ``states`` (F, 27) on it: the angles kept, the root's
+    height above the floor scaled with the body (the feet stay on it)."""
+    states = np.array(states, dtype=float, ndmin=2)
+    s = float(height) / dims.height
+    states[:, 2] *= s
+    return dims.scaled(height), states
+
+
 #: Weight of the coverage term in the start's fit (see :func:`fit_body_dimensions`).
 START_COVERAGE = 10.0
 
@@ -461,10 +556,24 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
     pick = pick_frames(len(records), n_fit)
     if pick[0] != 0:
         pick = np.r_[0, pick]
-    fit = fit_body_dimensions([observations[i] for i in pick],
-                              [records[i].state for i in pick], tracker.model.dimensions,
-                              variances=tracker.variances,
-                              coverage=START_COVERAGE if coverage is None else coverage)
+    base, states = tracker.model.dimensions, np.array([rec.state for rec in records])
+    fit_obs = [observations[i] for i in pick]
+    coverage = START_COVERAGE if coverage is None else coverage
+
+    def fitted(dims, poses):
+        return fit_body_dimensions(fit_obs, poses[pick], dims, variances=tracker.variances,
+                                   coverage=coverage)
+
+    fit = fitted(base, states)
+    # The standing height again, from the poses: kept when the body fitted at it explains the
+    # frames better. A start tracked wrong (a real recording's first pass: every pose crouched
+    # to 0.6 of the height) would otherwise scale the body to 2.7 m.
+    height = standing_height_from_poses(tracker.model, observations, states)
+    if height is not None and abs(height - base.height) >= fit_obs[0].grid.voxel_size:
+        other = fitted(*rescaled(base, states, height))
+        if other.log_likelihood > fit.log_likelihood:
+            fit, other = other, fit
+        fit = dataclasses.replace(fit, other=other)
     new = BodyTracker(BodyModel(fit.dimensions), config, seed=seed, frame_rate=tracker.frame_rate)
     new.start("fitted body", fit.states[0])
     out, checkpoints = [], []

@@ -18,14 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..pose.body_size import HEIGHT_RANGE_MM
 
 __all__ = ["HEIGHT_RANGE_MM", "body_model_for", "model_from_attrs", "result_body_model",
            "sized_model", "tracked_body", "tracked_in_memory", "voxel_height"]
 
-#: Plausible standing heights (mm). The voxels' vertical extent is the height of a standing
-#: person; raised arms or a crouch in the first frame move it, and outside this range it is
-#: more likely that than a person of that size.
-HEIGHT_RANGE_MM = (1400.0, 2100.0)
 
 
 def body_model_for(seq, gt=None):

@@ -348,8 +348,13 @@ class PassRun:
         seconds = time.perf_counter() - t0
         dims = fit.dimensions
         meta = self.meta
+        height = f"height {dims.height:.0f} mm"
+        if fit.other is not None:   # frame 1's voxel height and the poses' both tried
+            height += (f", the better of fits at {dims.height:.0f} and "
+                       f"{fit.other.dimensions.height:.0f} mm: {fit.log_likelihood:.1f} against "
+                       f"{fit.other.log_likelihood:.1f}")
         meta["body_model"] = (f"{meta['body_model']}; lengths fitted to {len(records)} frames "
-                              f"(height {dims.height:.0f} mm; summed log-likelihood of "
+                              f"({height}; summed log-likelihood of "
                               f"{len(fit.states)} frames {fit.start_log_likelihood:.1f} → "
                               f"{fit.log_likelihood:.1f})")
         meta["body_height_mm"] = float(dims.height)
