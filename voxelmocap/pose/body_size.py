@@ -473,9 +473,9 @@ def standing_height_from_poses(model, observations, states, *,
     visual hull contains the person, so each frame's height is an upper bound (a hand near the
     head top reads as crown: +40–60 mm on a waving clip) and the tightest one is kept, but a
     frame whose head did not carve reads a head's length lower, and is left out. ``None`` when
-    no frame has voxels. Frame 1's voxel
-    height alone measures a crouch, not the person: a jog's first frame stands 0.9 of the
-    runner's height, and a body scaled to it kept the ankles 90–100 mm high.
+    no frame has voxels. Frame 1's voxel height alone measures a crouch, not the person: a jog's
+    first frame stands 0.9 of the runner's height, and a body scaled to it kept the ankles
+    90–100 mm high.
 
     Parameters
     ----------
@@ -565,9 +565,10 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
                                    coverage=coverage)
 
     fit = fitted(base, states)
-    # The standing height again, from the poses: kept when the body fitted at it explains the
-    # frames better. A start tracked wrong (a real recording's first pass: every pose crouched
-    # to 0.6 of the height) would otherwise scale the body to 2.7 m.
+    # The standing height again, from the poses, kept only when the body fitted at it explains
+    # the frames better: a start tracked wrong (every pose crouched) implies a body far too tall.
+    # Not a sure guard: on voxels carved against the temporal median (the Pose2Sim demo's first
+    # pass, poses at 0.6 of the height) the 2.1 m body still scored better (docs/benchmarks.md).
     height = standing_height_from_poses(tracker.model, observations, states)
     if height is not None and abs(height - base.height) >= fit_obs[0].grid.voxel_size:
         other = fitted(*rescaled(base, states, height))

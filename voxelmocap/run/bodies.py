@@ -24,7 +24,6 @@ __all__ = ["HEIGHT_RANGE_MM", "body_model_for", "model_from_attrs", "result_body
            "sized_model", "tracked_body", "tracked_in_memory", "voxel_height"]
 
 
-
 def body_model_for(seq, gt=None):
     """The body model tracking uses for a sequence, and a phrase saying where it came from.
 
