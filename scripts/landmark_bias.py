@@ -10,6 +10,11 @@ of each landmark's offset.
 Usage::
 
     python scripts/landmark_bias.py RUN --data DATA
+    python scripts/landmark_bias.py OUT/accuracy/TAG --renders OUT/renders   # bench_facing.py runs
+
+With ``--renders``, RUN is a ``bench_facing.py`` tag folder (``<render>/seed*/<Subject>/<name>.h5``)
+and each run is scored against its render's ground truth (``OUT/renders/<render>/data``); a last
+line gives each landmark's mean error over all the runs.
 
 Feeds docs/benchmarks.md, "Accuracy on rendered clips" (what is left without the answer) and "Body size".
 """
@@ -37,26 +42,49 @@ def body_frame_errors(est, gt):
     return np.einsum("fij,flj->fli", rot, est - gt)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("run", help="a bench_no_answer.py variant folder (with seed*/)")
-    parser.add_argument("--data", required=True, help="the rendered clips (with ground truth)")
-    args = parser.parse_args()
+def runs(run: Path, data: str | None, renders: str | None):
+    """``(label, result, ground-truth xml)`` of every result in ``run``."""
+    if renders is not None:   # a bench_facing.py tag folder
+        for h5 in sorted(run.glob("*/seed*/*/*.h5")):
+            render, seed, subject = h5.parts[-4], h5.parts[-3], h5.parts[-2]
+            xml = Path(renders) / render / "data" / subject / "Mocap_Data" / f"{h5.stem}.xml"
+            yield f"{render} {seed}", h5, xml
+        return
     for index, (_clip, action, _start) in enumerate(CLIPS):
         subject, name = f"S{index + 1}", f"{action}_1"
-        for seed in sorted(Path(args.run).glob("seed*")):
+        for seed in sorted(run.glob("seed*")):
             h5 = seed / subject / f"{name}.h5"
-            if not h5.exists():
-                continue
-            ev = score_against(h5, Path(args.data) / subject / "Mocap_Data" / f"{name}.xml",
-                               delta=100.0)
-            est, gt = endpoints_to_landmarks(ev.est), endpoints_to_landmarks(ev.gt)
-            d = body_frame_errors(est, gt)
-            bias = d.mean(axis=0)
-            print(f"{subject} {name} {seed.name}: μ {np.linalg.norm(d, axis=2).mean():.1f} mm, "
-                  f"after removing the offsets {np.linalg.norm(d - bias, axis=2).mean():.1f} mm")
-            print("   offsets: " + " ".join(f"{n} {np.linalg.norm(b):.0f}"
-                                           for n, b in zip(LANDMARK_NAMES, bias, strict=True)))
+            if h5.exists():
+                yield (f"{subject} {name} {seed.name}", h5,
+                       Path(data) / subject / "Mocap_Data" / f"{name}.xml")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("run", help="a bench_no_answer.py variant folder (with seed*/), or a "
+                                    "bench_facing.py tag folder with --renders")
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--data", help="the rendered clips (with ground truth)")
+    where.add_argument("--renders", help="bench_facing.py's renders folder (OUT/renders)")
+    args = parser.parse_args()
+    errors = []
+    for label, h5, xml in runs(Path(args.run), args.data, args.renders):
+        ev = score_against(h5, xml, delta=100.0)
+        est, gt = endpoints_to_landmarks(ev.est), endpoints_to_landmarks(ev.gt)
+        d = body_frame_errors(est, gt)
+        bias = d.mean(axis=0)
+        size = np.linalg.norm(d, axis=2)
+        errors.append(size.mean(axis=0))
+        print(f"{label}: μ {size.mean():.1f} mm, "
+              f"after removing the offsets {np.linalg.norm(d - bias, axis=2).mean():.1f} mm")
+        print("   errors:  " + " ".join(f"{n} {e:.0f}"
+                                        for n, e in zip(LANDMARK_NAMES, size.mean(axis=0),
+                                                        strict=True)))
+        print("   offsets: " + " ".join(f"{n} {np.linalg.norm(b):.0f}"
+                                        for n, b in zip(LANDMARK_NAMES, bias, strict=True)))
+    if errors:
+        print(f"mean error over {len(errors)} runs: " + " ".join(
+            f"{n} {e:.0f}" for n, e in zip(LANDMARK_NAMES, np.mean(errors, axis=0), strict=True)))
 
 
 if __name__ == "__main__":
