@@ -38,9 +38,8 @@ dimensions are stored in the result file (``body_dimensions``) and re-read on ``
 
 from __future__ import annotations
 
-import dataclasses
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -60,7 +59,7 @@ __all__ = ["DEFAULT_FIT_KEYS", "FACTOR_RANGES", "FITTED_KEYS", "HEIGHT_AGREEMENT
            "HEIGHT_RANGE_MM", "START_COVERAGE", "BodyFit", "compass_combined",
            "dimensions_from_factors", "dimensions_from_json", "dimensions_to_json",
            "fit_body_dimensions", "pick_frames", "posed_height_share", "refit_start", "rescaled",
-           "standing_height", "standing_height_from_poses"]
+           "standing_height", "standing_height_from_poses", "voxel_height_mm"]
 
 #: The fitted skeleton lengths (fields of :class:`BodyDimensions`); pairs keep left = right.
 FITTED_KEYS: tuple[str, ...] = ("torso", "head", "shoulder_offset", "shoulder_drop",
@@ -462,11 +461,21 @@ def posed_height_share(model, states) -> np.ndarray:
     return (lm[:, head, 2] - lm[:, ankles, 2].min(axis=1)) / height + ANKLE_HEIGHT_SHARE
 
 
+def voxel_height_mm(observation) -> float | None:
+    """How tall a frame's voxels stand (mm): from the lowest voxel to the top of the head on the
+    trunk's axis (:attr:`voxelmocap.measure.detect.Extremities.height_mm`); ``None`` without
+    voxels."""
+    from ..measure.detect import find_extremities
+
+    ex = find_extremities(observation.occupancy, observation.grid, max_extremities=0)
+    return None if ex is None else float(ex.height_mm)
+
+
 def standing_height_from_poses(model, observations, states, *,
                                height_range=HEIGHT_RANGE_MM) -> float | None:
     """The standing height the voxels and the poses tracked in them imply (mm).
 
-    Each frame's voxels stand :attr:`~voxelmocap.measure.detect.Extremities.height_mm` high, a
+    Each frame's voxels stand :func:`voxel_height_mm` high, a
     pose that stands :func:`posed_height_share` of the standing height; their ratio is the
     standing height, whatever the size the poses were tracked with (the share does not depend
     on it). The smallest over the frames within :data:`HEIGHT_AGREEMENT` of their median: the
@@ -491,14 +500,12 @@ def standing_height_from_poses(model, observations, states, *,
     -------
     float or None
     """
-    from ..measure.detect import find_extremities
-
     shares = posed_height_share(model, states)
     heights = []
     for obs, share in zip(observations, shares, strict=True):
-        ex = find_extremities(obs.occupancy, obs.grid, max_extremities=0)
-        if ex is not None and share > 0:
-            heights.append(ex.height_mm / share)
+        tall = voxel_height_mm(obs)
+        if tall is not None and share > 0:
+            heights.append(tall / share)
     if not heights:
         return None
     heights = np.array(heights)
@@ -574,7 +581,7 @@ def refit_start(tracker, observations, records, config, seed, *, n_fit: int = 5,
         other = fitted(*rescaled(base, states, height))
         if other.log_likelihood > fit.log_likelihood:
             fit, other = other, fit
-        fit = dataclasses.replace(fit, other=other)
+        fit = replace(fit, other=other)
     new = BodyTracker(BodyModel(fit.dimensions), config, seed=seed, frame_rate=tracker.frame_rate)
     new.start("fitted body", fit.states[0])
     out, checkpoints = [], []

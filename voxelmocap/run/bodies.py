@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..pose.body_size import HEIGHT_RANGE_MM
+from ..pose.body_size import HEIGHT_RANGE_MM, voxel_height_mm
 
 __all__ = ["HEIGHT_RANGE_MM", "body_model_for", "model_from_attrs", "result_body_model",
            "sized_model", "tracked_body", "tracked_in_memory", "voxel_height"]
@@ -47,15 +47,14 @@ def body_model_for(seq, gt=None):
 
 
 def voxel_height(observation, frame) -> float:
-    """A frame's standing height (mm) from its voxels (:mod:`voxelmocap.measure.detect`)."""
-    from ..measure.detect import find_extremities
-
-    ex = find_extremities(observation.occupancy, observation.grid, max_extremities=0)
-    if ex is None:
+    """A frame's standing height (mm) from its voxels (:func:`voxel_height_mm`), clipped to
+    :data:`HEIGHT_RANGE_MM`."""
+    tall = voxel_height_mm(observation)
+    if tall is None:
         from ..measure.observation import no_voxels
 
         raise no_voxels(f"frame {int(frame)}", "measure the body")
-    return float(np.clip(ex.height_mm, *HEIGHT_RANGE_MM))
+    return float(np.clip(tall, *HEIGHT_RANGE_MM))
 
 
 def sized_model(height_mm: float, frame):
