@@ -349,6 +349,9 @@ class FilterConfig(Section):
                                          "volume is at most this many times the body model's", gt=0)
     limb_sweep_samples: int = setting(256, "Sobol points per limb of the periodic sweep (rounded up "
                                       "to a power of two)", ge=2)
+    limb_sweep_silhouette: float = setting(
+        10.0, "weight of the silhouette cue in the periodic sweep's score when the tracking cues "
+        "leave that cue out (0 = the tracking cues alone)", ge=0)
     limb_swaps: bool = setting(False, "the limb searches first try each pair of limbs exchanged "
                                "(legs crossed onto each other's voxels)")
     facing_check_every: int = setting(0, "every this many frames, check the estimate against its "

@@ -22,6 +22,8 @@ from voxelmocap.run.plan import (
 )
 
 DEFAULT = TrackConfig()
+#: a carving pass's config from the defaults: the periodic sweep without the silhouette cue
+CARVING = with_overrides(DEFAULT, **{"filter.limb_sweep_silhouette": 0.0})
 
 
 def _sequence(with_videos=()):
@@ -55,11 +57,12 @@ def test_one_camera_without_videos_learns_the_plate_in_passes():
 
 def test_three_passes_carving_then_each_from_the_previous_body():
     """The default: 3 plate passes, pass 3 on starting from pass 2's body (previous_pass_start
-    = 3); the first pass tracks with the config as given, the later ones with the silhouette cue
+    = 3); the first pass tracks with the config as given but for the periodic sweep's silhouette
+    cue (its silhouettes lack the parts that stood still), the later ones with the silhouette cue
     added (a plate from a body), the gate untouched."""
     plan = plan_passes(NO_VIDEOS, DEFAULT, n_frames=MIN_BODY_FRAMES)
     later = with_overrides(DEFAULT, **{"cues.weights": {"voxel": 1.0, "silhouette": 10.0}})
-    assert plan.passes == (PassPlan(1, 3, DEFAULT, "carving"),
+    assert plan.passes == (PassPlan(1, 3, CARVING, "carving"),
                            PassPlan(2, 3, later, "previous"),
                            PassPlan(3, 3, later, "previous", continues=True))
     assert [p.folder for p in plan.passes] == ["pass1", "pass2", ""]
@@ -109,11 +112,22 @@ def test_the_support_column_is_for_the_carving_pass_body_only():
 
 def test_too_few_frames_for_a_plate_from_a_body_take_one_pass_by_carving():
     """Fewer than MIN_BODY_FRAMES frames: one pass, the plate by carving, the config as given
-    (no silhouette cue: there is no body to learn a plate from)."""
+    (no silhouette cue: there is no body to learn a plate from; none in the sweep either)."""
     plan = plan_passes(NO_VIDEOS, DEFAULT, n_frames=MIN_BODY_FRAMES - 1)
-    assert plan == RunPlan((PassPlan(1, 1, DEFAULT, "carving"),))
+    assert plan == RunPlan((PassPlan(1, 1, CARVING, "carving"),))
     one = with_overrides(DEFAULT, **{"measurement.silhouette.plate_passes": 1})
-    assert plan_passes(NO_VIDEOS, one, n_frames=500) == RunPlan((PassPlan(1, 1, one, "carving"),))
+    assert plan_passes(NO_VIDEOS, one, n_frames=500) == RunPlan((PassPlan(
+        1, 1, with_overrides(one, **{"filter.limb_sweep_silhouette": 0.0}), "carving"),))
+
+
+def test_a_sweep_silhouette_weight_set_in_the_config_is_kept_in_the_carving_pass():
+    """Only the default weight is dropped for a carving pass; a weight the config chose stands,
+    and passes whose silhouettes come from background videos keep the default."""
+    chosen = with_overrides(DEFAULT, **{"filter.limb_sweep_silhouette": 4.0})
+    assert plan_passes(NO_VIDEOS, chosen, n_frames=500).passes[0].config == chosen
+    assert CARVING.filter.limb_sweep_silhouette == 0.0 < DEFAULT.filter.limb_sweep_silhouette
+    assert plan_passes(ALL_VIDEOS, DEFAULT, n_frames=500).passes == \
+        (PassPlan(1, 1, DEFAULT, "videos"),)
 
 
 def test_given_masks_take_one_pass_with_the_silhouette_cue_and_the_open_gate():

@@ -115,8 +115,13 @@ def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
 def test_track_with_plate_from_records_it_and_resume_checks_it(no_plate, tmp_path, capsys):
     data, run = no_plate
     out = tmp_path / "second"
+    # a carving pass drops the sweep's default silhouette weight (run.plan.carving_config): a
+    # weight chosen in the config stands in both, so the two runs below differ in the plate only
+    toml = tmp_path / "sweep.toml"
+    toml.write_text("[filter]\nlimb_sweep_silhouette = 5.0\n")
     args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
-            "--particles", "60", "--frames", "1:3", "--no-progress", "--out", str(out)]
+            "--particles", "60", "--frames", "1:3", "--no-progress", "--out", str(out),
+            "--config", str(toml)]
     assert main(args + ["--plate-from", str(run)]) == 0
     result = read_result(out / "S1" / "Walking_1.h5")
     assert result.attrs["plate_from"] == str((run / "S1" / "Walking_1.h5").resolve())

@@ -40,10 +40,11 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable, Iterable
+from dataclasses import replace
 
 import numpy as np
 
-from ..config import TrackConfig
+from ..config import TrackConfig, with_overrides
 from ..errors import InputError
 from ..portable import weighted_sum
 from .filter_setup import REFERENCE_RATE, build_filter, noise_profile
@@ -110,6 +111,8 @@ class BodyTracker:
 
         #: the likelihood terms and their weights (``[cues]``; default the voxel likelihood)
         self.cues = CueSet(model, self.config.cues, voxel=self.voxel_options)
+        #: the silhouette cue the periodic sweep adds (:meth:`sweep_scoring`), built on first use
+        self._sweep_cues = None
         self.init_method: str | None = None
         self.observers: list[Observer] = list(observers)
         self._settle = 0  # settling steps still due on the next frame (see settle)
@@ -214,7 +217,7 @@ class BodyTracker:
         from .limb_search import sweep_limbs
 
         new, gains = sweep_limbs(observation, self.model, est[0],
-                                 scoring=self.limb_scoring(observation), sweeps=1,
+                                 scoring=self.sweep_scoring(observation), sweeps=1,
                                  seed=self.filter.frame,
                                  min_gain=self.config.filter.limb_sweep_gain,
                                  samples=self.config.filter.limb_sweep_samples,
@@ -237,6 +240,33 @@ class BodyTracker:
 
         return LimbScoring(variances=self.variances, coverage=self.coverage,
                            voxel_weight=self._voxel_weight, others=self._other_cues(observation))
+
+    def sweep_scoring(self, observation):
+        """How the periodic sweep scores a limb: :meth:`limb_scoring`, plus the silhouette cue
+        at ``filter.limb_sweep_silhouette`` when the tracking cues leave that cue out and the
+        frame has silhouettes.
+
+        The coverage term rewards a limb for any occupied voxels it covers, and the visual hull
+        holds volume the cameras cannot carve away (about a third of the occupied voxels of a
+        rendered jog lie in no part): a forearm folded into that surplus in front of the chest
+        covers as much as the real one, and the voxels alone cannot tell the two apart. The
+        silhouettes can: the surplus's image lies inside the torso's in most views, the real
+        forearm's does not. Scoring whole images costs too much for every particle; a sweep
+        every ``limb_sweep_every`` frames scores a few thousand poses."""
+        scoring = self.limb_scoring(observation)
+        weight = self.config.filter.limb_sweep_silhouette
+        if (not weight or "silhouette" in self.cues.names
+                or getattr(observation, "masks", None) is None):
+            return scoring
+        if self._sweep_cues is None:
+            from ..score.cues import CueSet
+
+            cues = with_overrides(self.config, **{"cues.weights": {"silhouette": weight}}).cues
+            self._sweep_cues = CueSet(self.model, cues, voxel=self.voxel_options)
+        silhouette = self._sweep_cues.frame(observation)
+        others = scoring.others
+        return replace(scoring, others=silhouette if others is None
+                       else (lambda states: others(states) + silhouette(states)))
 
     def _other_cues(self, observation):
         """The cues other than the voxel one, ``(P, 27) -> (P,)`` on whole states, or None when

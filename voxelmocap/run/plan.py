@@ -172,14 +172,15 @@ def plan_passes(seq, config: TrackConfig, *, masks=None, plate_from=None, n_fram
         return RunPlan((PassPlan(1, 1, body_config, "run"),), body_note)
     learnt = learns_plate(seq, config.measurement.silhouette)
     n = int(config.measurement.silhouette.plate_passes) if learnt else 1
+    carving = carving_config(config) if learnt else config
     if n == 1 or n_frames < MIN_BODY_FRAMES:
-        return RunPlan((PassPlan(1, 1, config, "carving" if learnt else "videos"),))
+        return RunPlan((PassPlan(1, 1, carving, "carving" if learnt else "videos"),))
     first = config.init.previous_pass_start     # 0 (never) or >= 2: validated
     # The support column is for the body of the carving pass only: its plate, a temporal median,
     # absorbed a leg that stood still, so that body's legs say little about where the legs were.
     # Around a later body it leaves the floor under a standing foot unseen in every frame.
     later = with_overrides(body_config, **{"measurement.silhouette.plate_body_support": 0.0})
-    return RunPlan((PassPlan(1, n, config, "carving"),) + tuple(
+    return RunPlan((PassPlan(1, n, carving, "carving"),) + tuple(
         PassPlan(k, n, body_config if k == 2 else later, "previous", continues=0 < first <= k)
         for k in range(2, n + 1)), body_note)
 
@@ -220,6 +221,20 @@ def masks_defaults(config, cues_given: bool, *, why: str = "given person masks",
         return config, None
     return config, (f"{why}: " + " and ".join(changed) + " (docs/projects.md; "
                     "--cues or the config file choose otherwise)")
+
+
+def carving_config(config):
+    """The config of a pass whose plate is learnt by carving: the periodic limb sweep without
+    the silhouette cue, unless the config set its weight (``[filter] limb_sweep_silhouette``).
+
+    That plate is the sequence's temporal median, which keeps whatever of the person stood still
+    as background: its silhouettes lack those parts (a standing leg, a still trunk), so the cue
+    would pull the sweep's limbs off them (the silhouette cue tracked in that pass was worse on
+    the Pose2Sim demo: ``docs/benchmarks.md``, "Tried, not kept")."""
+    default = TrackConfig().filter.limb_sweep_silhouette
+    if config.filter.limb_sweep_silhouette != default:
+        return config
+    return with_overrides(config, **{"filter.limb_sweep_silhouette": 0.0})
 
 
 def final_config(config, cues_given: bool = False):
