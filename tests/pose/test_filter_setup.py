@@ -122,6 +122,8 @@ def test_every_filter_option_reaches_the_filter_from_toml():
             "limb_particles", "refine_evaluations", "limb_explore", "limb_proposal",
             "limb_sweep_every", "limb_sweep_gain", "limb_sweep_max_hull",
             "limb_sweep_samples", "limb_swaps",
+            # the tracker's periodic sweep (tests/pose/test_sweep_silhouette.py)
+            "limb_sweep_silhouette",
             # the tracker's facing check, not the filter's (tests/pose/test_facing.py)
             "facing_check_every", "facing_margin", "facing_weight"}
     assert {f.name for f in dataclasses.fields(cfg.filter)} == used

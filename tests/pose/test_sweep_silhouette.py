@@ -93,20 +93,47 @@ def test_the_silhouettes_move_the_arm_off_the_phantom(scene):
     assert with_images < 60.0 and voxels_only > 300.0, (with_images, voxels_only)
 
 
+def _arm_states(phantom, n=6, seed=3):
+    """The phantom pose with its left arm's angles drawn at random, and the arm's scorer."""
+    from voxelmocap.pose.hierarchy import LIMBS
+    from voxelmocap.score.partial import PartialScorer
+
+    rng = np.random.default_rng(seed)
+    states = np.repeat(phantom[None], n, axis=0)
+    states[:, [11, 12, 17]] = rng.uniform(0.0, 1.4, (n, 3))
+    dims, parts = LIMBS["l_arm"]
+    return states, lambda seen: PartialScorer(seen, MODEL, phantom, parts, dims)
+
+
 def test_the_sweep_score_is_the_tracking_score_plus_the_weighted_cue(scene):
-    """The sweep's score of whole states: the limb search's (voxel) score plus w × the
-    silhouette cue evaluated on its own (weight 1)."""
+    """The sweep's score of poses moving one arm: the limb search's (voxel) score plus w × the
+    silhouette cue evaluated on its own (weight 1, on whole states)."""
     _, phantom, seen = scene
     w = 7.0
     tracker = BodyTracker(MODEL, with_overrides(CONFIG, **{"filter.limb_sweep_silhouette": w}))
-    rng = np.random.default_rng(3)
-    states = np.repeat(phantom[None], 6, axis=0)
-    states[:, [11, 12, 17]] = rng.uniform(0.0, 1.4, (6, 3))
+    states, scorer = _arm_states(phantom)
     sweep, plain = tracker.sweep_scoring(seen), tracker.limb_scoring(seen)
-    assert plain.others is None
+    assert plain.others is None and plain.partial is None
     cue = CueSet(MODEL, CuesConfig(weights={"silhouette": 1.0})).log_likelihood(seen, states)
     assert np.ptp(cue) > 1.0
-    np.testing.assert_allclose(sweep.others(states), w * cue, rtol=1e-12)
+    s = scorer(seen)
+    np.testing.assert_allclose(sweep(s, states), plain(s, states) + w * cue, rtol=1e-12)
+
+
+def test_the_cue_is_added_to_the_other_tracked_cues(scene):
+    """With another image cue tracked beside the voxels (the edges at 0.5), the sweep's score is
+    the limb search's (voxels and edges) plus w × the silhouette cue."""
+    _, phantom, seen = scene
+    w = 3.0
+    tracker = BodyTracker(MODEL, with_overrides(CONFIG, **{
+        "cues.weights": {"voxel": 1.0, "edges": 0.5}, "filter.limb_sweep_silhouette": w}))
+    states, scorer = _arm_states(phantom, n=4, seed=4)
+    plain = tracker.limb_scoring(seen)
+    assert plain.others is not None
+    cue = CueSet(MODEL, CuesConfig(weights={"silhouette": 1.0})).log_likelihood(seen, states)
+    s = scorer(seen)
+    np.testing.assert_allclose(tracker.sweep_scoring(seen)(s, states),
+                               plain(s, states) + w * cue, rtol=1e-12)
 
 
 @pytest.mark.parametrize("why", ["weight 0", "silhouette cue tracked", "no silhouettes"])
@@ -122,11 +149,27 @@ def test_nothing_is_added_when_there_is_nothing_to_add(scene, why):
         seen = Measurement(seen.occupancy, GRID)
     tracker = BodyTracker(MODEL, with_overrides(CONFIG, **overrides))
     sweep, plain = tracker.sweep_scoring(seen), tracker.limb_scoring(seen)
-    assert (sweep.variances, sweep.coverage, sweep.voxel_weight) == \
-        (plain.variances, plain.coverage, plain.voxel_weight)
+    assert (sweep.variances, sweep.coverage, sweep.voxel_weight, sweep.partial) == \
+        (plain.variances, plain.coverage, plain.voxel_weight, None)
     if plain.others is None:
         assert sweep.others is None
     else:
         states = np.repeat(MODEL.default_state()[None], 3, axis=0)
         states[:, 11] = (0.0, 0.7, 1.4)
         np.testing.assert_array_equal(sweep.others(states), plain.others(states))
+
+
+def test_ignored_silhouette_pixels_take_the_whole_states_cue(scene):
+    """With ``[cues] silhouette_unseen = "ignore"`` the partial re-scoring (which counts every
+    pixel) is not used: the cue is added on whole states, with the same value."""
+    _, phantom, seen = scene
+    w = 5.0
+    tracker = BodyTracker(MODEL, with_overrides(CONFIG, **{
+        "cues.silhouette_unseen": "ignore", "filter.limb_sweep_silhouette": w}))
+    sweep, plain = tracker.sweep_scoring(seen), tracker.limb_scoring(seen)
+    assert sweep.partial is None and sweep.others is not None
+    states, scorer = _arm_states(phantom, n=4, seed=5)
+    cue = CueSet(MODEL, CuesConfig(weights={"silhouette": 1.0}, silhouette_unseen="ignore")
+                 ).log_likelihood(seen, states)
+    s = scorer(seen)
+    np.testing.assert_allclose(sweep(s, states), plain(s, states) + w * cue, rtol=1e-12)

@@ -125,7 +125,7 @@ def test_a_sweep_silhouette_weight_set_in_the_config_is_kept_in_the_carving_pass
     and passes whose silhouettes come from background videos keep the default."""
     chosen = with_overrides(DEFAULT, **{"filter.limb_sweep_silhouette": 4.0})
     assert plan_passes(NO_VIDEOS, chosen, n_frames=500).passes[0].config == chosen
-    assert CARVING.filter.limb_sweep_silhouette == 0.0 < DEFAULT.filter.limb_sweep_silhouette
+    assert DEFAULT.filter.limb_sweep_silhouette > 0
     assert plan_passes(ALL_VIDEOS, DEFAULT, n_frames=500).passes == \
         (PassPlan(1, 1, DEFAULT, "videos"),)
 

@@ -28,6 +28,23 @@ def no_plate(walk_dataset, tmp_path_factory):
     return data, run
 
 
+def test_a_carving_run_counts_as_done_for_its_request(no_plate):
+    """The one-pass carving run records its pass's config (the periodic sweep's default
+    silhouette weight dropped, ``run.plan.carving_config``); ``--all`` counts it as done for the
+    config it was asked to track with, and not for another."""
+    from voxelmocap.config import config_from_toml, config_to_toml
+    from voxelmocap.run.batch import result_is_done
+
+    _, run = no_plate
+    path = run / "S1" / "Walking_1.h5"
+    recorded = config_from_toml(str(read_result(path).attrs["config"]))
+    assert recorded.filter.limb_sweep_silhouette == 0.0
+    asked = with_overrides(recorded, **{"filter.limb_sweep_silhouette": 10.0})   # the default
+    assert result_is_done(path, config_to_toml(asked), 0)
+    other = with_overrides(asked, **{"filter.limb_sweep_gain": 3.0})
+    assert not result_is_done(path, config_to_toml(other), 0)
+
+
 def test_the_plate_from_the_true_body_is_the_empty_scene(walk_dataset, no_plate):
     """The body fitted to the ground truth as the cover: the plate is the renderer's empty scene
     (its background videos, removed from the tracked copy) wherever the walk uncovered it."""

@@ -94,7 +94,59 @@ def _drawable(pts) -> bool:
     return True
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, inline="always")
+def _row_extent(hx, hy, nv, y):
+    """``(lo, hi)``: where row ``y`` crosses the convex polygon ``hx, hy`` (``nv`` vertices);
+    ``hi < lo`` when it misses it."""
+    lo, hi = np.inf, -np.inf
+    for v in range(nv):  # the row's crossings of the hull's edges
+        ax, ay = hx[v], hy[v]
+        bx, by = hx[(v + 1) % nv], hy[(v + 1) % nv]
+        if (ay <= y <= by) or (by <= y <= ay):
+            if ay == by:
+                lo, hi = min(lo, ax, bx), max(hi, ax, bx)
+            else:
+                x = ax + (bx - ax) * (y - ay) / (by - ay)
+                lo, hi = min(lo, x), max(hi, x)
+    return lo, hi
+
+
+@njit(cache=True)
+def draw_parts(points, valid, out):
+    """Set the pixels of the union of the parts' images in ``out``, each pixel as
+    :func:`cover_counts` counts it (the same hulls, row crossings and rounding).
+
+    Parameters
+    ----------
+    points : (n_parts, K, 2) float64 ndarray
+        Outline points ``(x, y)`` of one state's parts in mask pixels.
+    valid : (n_parts,) bool ndarray
+    out : (H, W) bool ndarray
+        Drawn into (pixels already set stay set).
+    """
+    n_parts, n_k = points.shape[0], points.shape[1]
+    h, w = out.shape
+    order = np.empty(n_k, np.int64)
+    hx = np.empty(2 * n_k, np.float64)
+    hy = np.empty(2 * n_k, np.float64)
+    for q in range(n_parts):
+        if not valid[q] or not _drawable(points[q]):
+            continue
+        m = _convex_hull(points[q, :, 0], points[q, :, 1], n_k, order, hx, hy)
+        if m < 3:
+            continue
+        r0, r1 = h, -1
+        for v in range(m):
+            r0 = min(r0, int(np.ceil(hy[v])))
+            r1 = max(r1, int(np.floor(hy[v])))
+        for i in range(max(r0, 0), min(r1, h - 1) + 1):
+            lo, hi = _row_extent(hx, hy, m, float(i))
+            if hi < lo:
+                continue
+            for j in range(max(int(np.ceil(lo)), 0), min(int(np.floor(hi)), w - 1) + 1):
+                out[i, j] = True
+
+
 def cover_counts(points, valid, mask, hit, extra):
     """Pixels of a silhouette covered by the projected body, and body pixels outside it.
 
@@ -114,10 +166,15 @@ def cover_counts(points, valid, mask, hit, extra):
     hit, extra : (P,) int64 ndarray
         Output: drawn pixels inside / outside the silhouette.
     """
-    n_p, n_parts, n_k = points.shape[0], points.shape[1], points.shape[2]
+    cover_counts_prefixed(points, valid, row_prefix(mask), hit, extra)
+
+
+@njit(cache=True)
+def row_prefix(mask):
+    """``(H, W + 1)`` int64 row prefix sums of a ``(H, W)`` bool mask: a row's union of the
+    parts' spans is counted per span, not per pixel (shared by every particle, and by every call
+    of a search that scores against one mask: :mod:`voxelmocap.score.cues.partial`)."""
     h, w = mask.shape
-    # Row prefix sums of the mask (shared by every particle): a row's union of the parts' spans
-    # is counted per span, not per pixel
     csum = np.zeros((h, w + 1), np.int64)
     for i in range(h):
         acc = 0
@@ -125,6 +182,14 @@ def cover_counts(points, valid, mask, hit, extra):
             if mask[i, j]:
                 acc += 1
             csum[i, j + 1] = acc
+    return csum
+
+
+@njit(cache=True, parallel=True)
+def cover_counts_prefixed(points, valid, csum, hit, extra):
+    """:func:`cover_counts` against a mask given by its :func:`row_prefix` ``(H, W + 1)``."""
+    n_p, n_parts, n_k = points.shape[0], points.shape[1], points.shape[2]
+    h, w = csum.shape[0], csum.shape[1] - 1
     for p in prange(n_p):
         order = np.empty(n_k, np.int64)
         hx = np.empty((n_parts, 2 * n_k), np.float64)
@@ -157,16 +222,7 @@ def cover_counts(points, valid, mask, hit, extra):
                     nv = m[q]
                     if nv < 3 or i < q_lo[q] or i > q_hi[q]:
                         continue
-                    lo, hi = np.inf, -np.inf
-                    for v in range(nv):  # the row's crossings of the hull's edges
-                        ax, ay = hx[q, v], hy[q, v]
-                        bx, by = hx[q, (v + 1) % nv], hy[q, (v + 1) % nv]
-                        if (ay <= y <= by) or (by <= y <= ay):
-                            if ay == by:
-                                lo, hi = min(lo, ax, bx), max(hi, ax, bx)
-                            else:
-                                x = ax + (bx - ax) * (y - ay) / (by - ay)
-                                lo, hi = min(lo, x), max(hi, x)
+                    lo, hi = _row_extent(hx[q], hy[q], nv, y)
                     if hi < lo:
                         continue
                     j0, j1 = max(int(np.ceil(lo)), c0), min(int(np.floor(hi)), c1)

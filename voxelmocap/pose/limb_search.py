@@ -62,19 +62,28 @@ class LimbScoring:
         The log-likelihood ``(P, 27) -> (P,)`` of the other cues on whole states (e.g. the
         silhouette cue) on this frame: a visual hull several times the body offers phantom
         volume that only the images rule out.
+    partial : callable or None
+        ``(scorer, (P, 27)) -> (P,)``: cues re-scored on the scorer's moving parts only (its
+        ``reference`` and ``parts``), added after ``others`` (the periodic sweep's silhouette
+        cue, :meth:`voxelmocap.pose.tracker.BodyTracker.sweep_scoring`).
     """
 
     variances: tuple = DEFAULT_VARIANCES
     coverage: float = 0.0
     voxel_weight: float = 1.0
     others: Callable[[np.ndarray], np.ndarray] | None = None
+    partial: Callable[[PartialScorer, np.ndarray], np.ndarray] | None = None
 
     def __call__(self, scorer: PartialScorer, states) -> np.ndarray:
         """``(P,)`` scores of ``(P, 27)`` states that differ from the scorer's pose only in its
         limb's dimensions."""
         out = self.voxel_weight * scorer.log_likelihood(states, variances=self.variances,
                                                         coverage=self.coverage)
-        return out if self.others is None else out + self.others(states)
+        extra = None if self.others is None else self.others(states)
+        if self.partial is not None:
+            more = self.partial(scorer, states)
+            extra = more if extra is None else extra + more
+        return out if extra is None else out + extra
 
 
 def sweep_limbs(observation, model, state, *, scoring: LimbScoring | None = None,

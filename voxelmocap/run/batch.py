@@ -129,8 +129,10 @@ def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) 
     A complete result of other settings is not "done": tracking it again is refused by
     :func:`~voxelmocap.run.pipeline.track_sequence` with the reason (unless ``overwrite``). The
     last of several tracking passes records the config it tracked with
-    (:func:`voxelmocap.run.plan.final_config`: the silhouette cue added), which counts as this
-    one (``cues_given``: the cues were chosen, as ``track --cues``).
+    (:func:`voxelmocap.run.plan.final_config`: the silhouette cue added), and a run whose last
+    pass learnt its plate by carving records that pass's
+    (:func:`voxelmocap.run.plan.carving_config`); either counts as this one (``cues_given``:
+    the cues were chosen, as ``track --cues``).
     """
     from ..io.results import read_result
 
@@ -146,12 +148,12 @@ def result_is_done(path, config_toml: str, seed: int, cues_given: bool = False) 
         return False
     if str(attrs.get("config")) == config_toml:
         return True
-    if not str(attrs.get("plate_from", "")):
-        return False
-    from .plan import final_config
+    from .plan import carving_config, final_config
 
-    final = final_config(config_from_toml(config_toml), cues_given)[0]
-    return str(attrs.get("config")) == config_to_toml(final)
+    config = config_from_toml(config_toml)
+    if not str(attrs.get("plate_from", "")):
+        return str(attrs.get("config")) == config_to_toml(carving_config(config))
+    return str(attrs.get("config")) == config_to_toml(final_config(config, cues_given)[0])
 
 
 @dataclass(frozen=True)

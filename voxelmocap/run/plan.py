@@ -34,7 +34,8 @@ from dataclasses import dataclass
 from ..config import TrackConfig, with_overrides
 
 __all__ = ["CONTINUED_SEARCH", "LOST_SHARE", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES",
-           "PassPlan", "RunPlan", "final_config", "masks_defaults", "pass_folder", "plan_passes"]
+           "PassPlan", "RunPlan", "carving_config", "final_config", "masks_defaults",
+           "pass_folder", "plan_passes"]
 
 #: Fewest frames with the person a pass must track for the next pass to learn its plate from
 #: its body (the plate is the median of those frames around the body): on the rendered 8-frame
@@ -230,7 +231,18 @@ def carving_config(config):
     That plate is the sequence's temporal median, which keeps whatever of the person stood still
     as background: its silhouettes lack those parts (a standing leg, a still trunk), so the cue
     would pull the sweep's limbs off them (the silhouette cue tracked in that pass was worse on
-    the Pose2Sim demo: ``docs/benchmarks.md``, "Tried, not kept")."""
+    the Pose2Sim demo: ``docs/benchmarks.md``, "Tried, not kept").
+
+    Parameters
+    ----------
+    config : TrackConfig
+
+    Returns
+    -------
+    TrackConfig
+        ``config`` with ``filter.limb_sweep_silhouette = 0`` where it held the default, else
+        ``config`` itself.
+    """
     default = TrackConfig().filter.limb_sweep_silhouette
     if config.filter.limb_sweep_silhouette != default:
         return config
