@@ -9,10 +9,10 @@ scipy's Delaunay), show the arm where it is. The track starts with the arm on th
 
 import numpy as np
 import pytest
+from camera_fixture import look_at_camera
 from scipy.spatial import Delaunay
 
 from voxelmocap.body import BodyModel
-from voxelmocap.camera import Camera
 from voxelmocap.config import CuesConfig, TrackConfig, with_overrides
 from voxelmocap.grid import VoxelGrid
 from voxelmocap.measure.observation import VoxelObservation
@@ -33,16 +33,8 @@ CONFIG = with_overrides(TrackConfig(), **{
 L_WRIST = 4
 
 
-def _camera(name, eye, size=(320, 240)):
-    """A pinhole camera at ``eye`` looking at (0, 0, 1000) mm."""
-    eye = np.asarray(eye, dtype=float)
-    z = np.array([0.0, 0.0, 1000.0]) - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0, 0, 1.0])
-    x /= np.linalg.norm(x)
-    rot = np.stack([x, np.cross(z, x), z])
-    return Camera(name, fc=(250.0, 250.0), cc=(size[0] / 2, size[1] / 2), R=rot, T=-rot @ eye,
-                  size=size)
+def _camera(name, eye):
+    return look_at_camera(name, eye, (320, 240), focal=250.0)
 
 
 CAMERAS = [_camera("A", (0.0, -4000.0, 1000.0)), _camera("B", (3000.0, -3000.0, 1500.0)),

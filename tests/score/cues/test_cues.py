@@ -4,9 +4,9 @@ import dataclasses
 
 import numpy as np
 import pytest
+from camera_fixture import look_at_camera
 
 from voxelmocap.body import BodyModel
-from voxelmocap.camera import Camera
 from voxelmocap.config import CuesConfig, TrackConfig, config_from_toml, config_to_toml
 from voxelmocap.errors import InputError
 from voxelmocap.grid import VoxelGrid
@@ -40,14 +40,7 @@ def test_image_bins():
 # ----------------------------------------------------------------------- a synthetic frame
 def _camera(name="C", eye=(0.0, -4000.0, 1000.0), size=(640, 480)):
     """A camera at ``eye`` looking at (0, 0, 1000) mm, principal point at the image centre."""
-    eye = np.asarray(eye, dtype=float)
-    z = np.array([0.0, 0.0, 1000.0]) - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0, 0, 1.0])
-    x /= np.linalg.norm(x)
-    rot = np.stack([x, np.cross(z, x), z])
-    return Camera(name, fc=(500.0, 500.0), cc=(size[0] / 2, size[1] / 2), R=rot, T=-rot @ eye,
-                  size=size)
+    return look_at_camera(name, eye, size)
 
 
 def _frame(model, state, cameras, *, grid=None):
