@@ -264,8 +264,11 @@ class BodyTracker:
             cues = with_overrides(self.config, **{"cues.weights": {"silhouette": weight}}).cues
             self._sweep_cues = CueSet(self.model, cues, voxel=self.voxel_options)
         if self._sweep_cues.config.silhouette_unseen == "count":
+            from ..score.cues.partial import WeightedPartialSilhouette
+
             # a limb moves two cones of ten: the others are drawn once per limb, not per pose
-            return replace(scoring, partial=_PartialCue(self._sweep_cues, observation, weight))
+            return replace(scoring, partial=WeightedPartialSilhouette(self._sweep_cues,
+                                                                      observation, weight))
         silhouette = self._sweep_cues.frame(observation)
         others = scoring.others
         return replace(scoring, others=silhouette if others is None
@@ -637,22 +640,3 @@ class BodyTracker:
 
             self._recovery = Recovery(self)
             self._recovery.set_state(state)
-
-
-class _PartialCue:
-    """``(scorer, states) -> weight ×`` the silhouette cue of states moving the scorer's parts
-    (:class:`~voxelmocap.score.cues.partial.PartialSilhouette`, rebuilt when the scorer, i.e.
-    the limb or its reference pose, changes)."""
-
-    def __init__(self, cues, observation, weight: float):
-        self.cues, self.frame, self.weight = cues, cues.prepare(observation), float(weight)
-        self._scorer = self._partial = None
-
-    def __call__(self, scorer, states) -> np.ndarray:
-        from ..score.cues.partial import PartialSilhouette
-
-        if scorer is not self._scorer:
-            self._scorer = scorer
-            self._partial = PartialSilhouette(self.frame, self.cues.model, self.cues.config,
-                                              scorer.reference, scorer.parts)
-        return self.weight * self._partial(states)

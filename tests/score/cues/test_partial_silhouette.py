@@ -80,11 +80,11 @@ def test_the_sweep_finds_the_same_limbs_with_the_partial_cue(scene):
     """The periodic sweep scored with the silhouette cue on whole states (``others``) and
     re-scored on each limb's parts (``partial``): the same pose to the bit."""
     from voxelmocap.pose.limb_search import LimbScoring, sweep_limbs
-    from voxelmocap.pose.tracker import _PartialCue
+    from voxelmocap.score.cues.partial import WeightedPartialSilhouette
 
     cues = CueSet(MODEL, CuesConfig(weights={"silhouette": 10.0}))
     whole = LimbScoring(others=cues.frame(scene))
-    part = LimbScoring(partial=_PartialCue(cues, scene, 10.0))
+    part = LimbScoring(partial=WeightedPartialSilhouette(cues, scene, 10.0))
     start = MODEL.default_state()
     a, gains = sweep_limbs(scene, MODEL, start, scoring=whole, sweeps=1, samples=64)
     b, _ = sweep_limbs(scene, MODEL, start, scoring=part, sweeps=1, samples=64)

@@ -94,6 +94,7 @@ class CueFrame:
         self._bins: dict[tuple[int, int], tuple[np.ndarray, int]] = {}
         self._distance: dict[int, np.ndarray] = {}
         self._silhouette: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._prefix: dict[tuple[int, int], np.ndarray] = {}
         masks = getattr(observation, "masks", None)
         self.masks = None if masks is None else [np.asarray(masks[i]) for i in keep]
         known = getattr(observation, "known", None)
@@ -171,6 +172,17 @@ class CueFrame:
             self._silhouette[key] = (np.ascontiguousarray(area >= 0.5),
                                      np.array([small[0] / w, small[1] / h]))
         return self._silhouette[key]
+
+    def silhouette_prefix(self, c: int, size: int) -> np.ndarray:
+        """``(h, w + 1)`` int64 row prefix sums of :meth:`silhouette`'s mask
+        (:func:`~voxelmocap.measure._silhouette_kernels.row_prefix`): once a frame, not once
+        per scored batch of poses."""
+        key = (c, int(size))
+        if key not in self._prefix:
+            from ...measure._silhouette_kernels import row_prefix
+
+            self._prefix[key] = row_prefix(self.silhouette(c, size)[0])
+        return self._prefix[key]
 
     def silhouette_known(self, c: int, size: int) -> np.ndarray | None:
         """``(h, w) bool``: the pixels of :meth:`silhouette`'s mask whose background the learnt

@@ -19,15 +19,15 @@ import numpy as np
 from ...measure import _silhouette_kernels as _sk
 from .contours import outline_pixels
 
-__all__ = ["PartialSilhouette"]
+__all__ = ["PartialSilhouette", "WeightedPartialSilhouette"]
 
 
 def _geometry(model, states, parts=None):
     """The parts' cone geometry of ``(P, 27)`` states as the cues compute it
     (:class:`~voxelmocap.score.cues.terms.Views`), only ``parts`` when given."""
-    from ...body.model import PartGeometry
+    from .terms import Views
 
-    geo = PartGeometry(model.forward(model.check(states, legal=True)), model.parts)
+    geo = Views(model, None, states).geometry
     if parts is None:
         return geo
     return types.SimpleNamespace(base=geo.base[:, parts], axis=geo.axis[:, parts],
@@ -94,3 +94,29 @@ class PartialSilhouette:
             uncovered = total - (hit0 + hit)
             out -= (uncovered + (extra0 + extra)) / total / self.scale
         return out
+
+
+class WeightedPartialSilhouette:
+    """``(scorer, states) -> weight ×`` the silhouette cue of states moving the scorer's parts
+    (:class:`~voxelmocap.pose.limb_search.LimbScoring`'s ``partial``): a
+    :class:`PartialSilhouette` rebuilt when the scorer (the limb, or its reference pose)
+    changes.
+
+    Parameters
+    ----------
+    cues : voxelmocap.score.cues.CueSet
+        Whose ``config`` holds the silhouette settings and whose frame cache prepares the images.
+    observation : VoxelObservation
+    weight : float
+    """
+
+    def __init__(self, cues, observation, weight: float):
+        self.cues, self.frame, self.weight = cues, cues.prepare(observation), float(weight)
+        self._scorer = self._partial = None
+
+    def __call__(self, scorer, states) -> np.ndarray:
+        if scorer is not self._scorer:
+            self._scorer = scorer
+            self._partial = PartialSilhouette(self.frame, self.cues.model, self.cues.config,
+                                              scorer.reference, scorer.parts)
+        return self.weight * self._partial(states)

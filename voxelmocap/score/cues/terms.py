@@ -429,7 +429,8 @@ class SilhouetteCue(Cue):
             pixels, valid = outline_pixels(views.geometry, frame.cameras[c], scale)
             hit = np.empty(views.n, np.int64)
             extra = np.empty(views.n, np.int64)
-            _sk.cover_counts(pixels, valid, mask, hit, extra)
+            _sk.cover_counts_prefixed(pixels, valid, frame.silhouette_prefix(c, cfg.silhouette_size),
+                                      hit, extra)
             known = frame.silhouette_known(c, cfg.silhouette_size) \
                 if cfg.silhouette_unseen == "ignore" else None
             if known is None:
