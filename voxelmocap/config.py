@@ -341,7 +341,7 @@ class FilterConfig(Section):
                                   "layer drawn uniformly over the limb's legal ranges", ge=0, lt=1)
     limb_proposal: float = setting(0.0, "hierarchical search: share of each limb partition's first "
                                    "layer from the frame's detector proposal (0 = none)", ge=0, lt=1)
-    limb_sweep_every: int = setting(10, "search each limb of the estimate over its legal ranges "
+    limb_sweep_every: int = setting(5, "search each limb of the estimate over its legal ranges "
                                     "every this many frames (0 = never)", unit="frames", ge=0)
     limb_sweep_gain: float = setting(2.0, "the periodic sweep moves a limb only when it gains more "
                                      "than this", unit="log-likelihood", ge=0)

@@ -14,16 +14,20 @@ from voxelmocap.run.plan import (
     MASKS_CUES,
     MASKS_MAX_HULL,
     MIN_BODY_FRAMES,
+    VOXEL_SWEEP_EVERY,
     PassPlan,
     RunPlan,
+    carving_config,
     final_config,
     masks_defaults,
     plan_passes,
 )
 
 DEFAULT = TrackConfig()
-#: a carving pass's config from the defaults: the periodic sweep without the silhouette cue
-CARVING = with_overrides(DEFAULT, **{"filter.limb_sweep_silhouette": 0.0})
+#: a carving pass's config from the defaults: the periodic sweep without the silhouette cue, at
+#: the period of a sweep of the voxels alone
+CARVING = with_overrides(DEFAULT, **{"filter.limb_sweep_silhouette": 0.0,
+                                     "filter.limb_sweep_every": VOXEL_SWEEP_EVERY})
 
 
 def _sequence(with_videos=()):
@@ -117,17 +121,37 @@ def test_too_few_frames_for_a_plate_from_a_body_take_one_pass_by_carving():
     assert plan == RunPlan((PassPlan(1, 1, CARVING, "carving"),))
     one = with_overrides(DEFAULT, **{"measurement.silhouette.plate_passes": 1})
     assert plan_passes(NO_VIDEOS, one, n_frames=500) == RunPlan((PassPlan(
-        1, 1, with_overrides(one, **{"filter.limb_sweep_silhouette": 0.0}), "carving"),))
+        1, 1, with_overrides(one, **{"filter.limb_sweep_silhouette": 0.0,
+                                     "filter.limb_sweep_every": VOXEL_SWEEP_EVERY}), "carving"),))
 
 
 def test_a_sweep_silhouette_weight_set_in_the_config_is_kept_in_the_carving_pass():
     """Only the default weight is dropped for a carving pass; a weight the config chose stands,
     and passes whose silhouettes come from background videos keep the default."""
     chosen = with_overrides(DEFAULT, **{"filter.limb_sweep_silhouette": 4.0})
-    assert plan_passes(NO_VIDEOS, chosen, n_frames=500).passes[0].config == chosen
+    assert plan_passes(NO_VIDEOS, chosen, n_frames=500).passes[0].config == with_overrides(
+        chosen, **{"filter.limb_sweep_every": VOXEL_SWEEP_EVERY})
     assert DEFAULT.filter.limb_sweep_silhouette > 0
     assert plan_passes(ALL_VIDEOS, DEFAULT, n_frames=500).passes == \
         (PassPlan(1, 1, DEFAULT, "videos"),)
+
+
+def test_the_carving_pass_sweeps_at_the_voxel_sweep_period_unless_the_config_chose():
+    """The default period is the sweep scored with the silhouettes; a carving pass, whose sweep
+    has the voxels alone, sweeps every VOXEL_SWEEP_EVERY frames; a period the config chose (0:
+    never) stands there too, and the later passes keep the config's."""
+    assert DEFAULT.filter.limb_sweep_every != VOXEL_SWEEP_EVERY
+    plan = plan_passes(NO_VIDEOS, DEFAULT, n_frames=MIN_BODY_FRAMES)
+    assert [p.config.filter.limb_sweep_every for p in plan.passes] == \
+        [VOXEL_SWEEP_EVERY, DEFAULT.filter.limb_sweep_every, DEFAULT.filter.limb_sweep_every]
+    for every in (0, 3):
+        chosen = with_overrides(DEFAULT, **{"filter.limb_sweep_every": every})
+        plan = plan_passes(NO_VIDEOS, chosen, n_frames=MIN_BODY_FRAMES)
+        assert [p.config.filter.limb_sweep_every for p in plan.passes] == [every] * 3
+    # both chosen: the carving pass's config is the config itself
+    both = with_overrides(DEFAULT, **{"filter.limb_sweep_every": 3,
+                                      "filter.limb_sweep_silhouette": 4.0})
+    assert carving_config(both) is both
 
 
 def test_given_masks_take_one_pass_with_the_silhouette_cue_and_the_open_gate():

@@ -9,6 +9,7 @@ from voxelmocap.cli import main
 from voxelmocap.config import TrackConfig, with_overrides
 from voxelmocap.io.humaneva import Dataset
 from voxelmocap.io.results import read_result
+from voxelmocap.run.plan import VOXEL_SWEEP_EVERY
 
 SMALL = with_overrides(TrackConfig(), **{"filter.layers": 2, "filter.particles": 60})
 
@@ -39,7 +40,10 @@ def test_a_carving_run_counts_as_done_for_its_request(no_plate):
     path = run / "S1" / "Walking_1.h5"
     recorded = config_from_toml(str(read_result(path).attrs["config"]))
     assert recorded.filter.limb_sweep_silhouette == 0.0
-    asked = with_overrides(recorded, **{"filter.limb_sweep_silhouette": 10.0})   # the default
+    assert recorded.filter.limb_sweep_every == VOXEL_SWEEP_EVERY
+    default = TrackConfig().filter
+    asked = with_overrides(recorded, **{"filter.limb_sweep_silhouette": default.limb_sweep_silhouette,
+                                        "filter.limb_sweep_every": default.limb_sweep_every})
     assert result_is_done(path, config_to_toml(asked), 0)
     other = with_overrides(asked, **{"filter.limb_sweep_gain": 3.0})
     assert not result_is_done(path, config_to_toml(other), 0)
@@ -132,10 +136,11 @@ def test_tracked_body_reads_the_run_of_this_sequence(no_plate):
 def test_track_with_plate_from_records_it_and_resume_checks_it(no_plate, tmp_path, capsys):
     data, run = no_plate
     out = tmp_path / "second"
-    # a carving pass drops the sweep's default silhouette weight (run.plan.carving_config): a
-    # weight chosen in the config stands in both, so the two runs below differ in the plate only
+    # a carving pass drops the sweep's default silhouette weight and period
+    # (run.plan.carving_config): values chosen in the config stand in both, so the two runs
+    # below differ in the plate only
     toml = tmp_path / "sweep.toml"
-    toml.write_text("[filter]\nlimb_sweep_silhouette = 5.0\n")
+    toml.write_text("[filter]\nlimb_sweep_silhouette = 5.0\nlimb_sweep_every = 7\n")
     args = ["track", str(data), "--subject", "S1", "--sequence", "Walking_1", "--layers", "2",
             "--particles", "60", "--frames", "1:3", "--no-progress", "--out", str(out),
             "--config", str(toml)]

@@ -34,8 +34,8 @@ from dataclasses import dataclass
 from ..config import TrackConfig, with_overrides
 
 __all__ = ["CONTINUED_SEARCH", "LOST_SHARE", "MASKS_CUES", "MASKS_MAX_HULL", "MIN_BODY_FRAMES",
-           "PassPlan", "RunPlan", "carving_config", "final_config", "masks_defaults",
-           "pass_folder", "plan_passes"]
+           "VOXEL_SWEEP_EVERY", "PassPlan", "RunPlan", "carving_config", "final_config",
+           "masks_defaults", "pass_folder", "plan_passes"]
 
 #: Fewest frames with the person a pass must track for the next pass to learn its plate from
 #: its body (the plate is the median of those frames around the body): on the rendered 8-frame
@@ -45,6 +45,12 @@ MIN_BODY_FRAMES = 10
 #: this share of the frames the previous pass found them in ends the passes: the last pass
 #: repeats the previous one (a rendered gestures clip without plate: 100 frames, then 36, then 0).
 LOST_SHARE = 0.9
+#: The periodic limb sweep's period (frames) in a pass whose plate is learnt by carving, where
+#: the sweep has the voxels alone: what that sweep was measured at (10: 45.3 → 42.8 mm on the
+#: rendered clips, docs/benchmarks.md). The default period (5) is the sweep scored with the
+#: silhouettes too; on the Pose2Sim demo a carving pass swept every 5 frames moved three of five
+#: seeds' first passes, and through their plates the later passes (one seed 70 → 440 mm).
+VOXEL_SWEEP_EVERY = 10
 
 #: With ``--masks``: the cues and the limb sweep's hull gate used unless chosen otherwise
 #: (docs/benchmarks.md, "Real recording"). With a plate from a tracked body the cues only.
@@ -225,13 +231,16 @@ def masks_defaults(config, cues_given: bool, *, why: str = "given person masks",
 
 
 def carving_config(config):
-    """The config of a pass whose plate is learnt by carving: the periodic limb sweep without
-    the silhouette cue, unless the config set its weight (``[filter] limb_sweep_silhouette``).
+    """The config of a pass whose plate is learnt by carving: the periodic limb sweep as it is
+    without silhouettes — the voxels alone, every :data:`VOXEL_SWEEP_EVERY` frames — where the
+    config holds the defaults (``[filter] limb_sweep_silhouette``, ``limb_sweep_every``).
 
     That plate is the sequence's temporal median, which keeps whatever of the person stood still
     as background: its silhouettes lack those parts (a standing leg, a still trunk), so the cue
     would pull the sweep's limbs off them (the silhouette cue tracked in that pass was worse on
-    the Pose2Sim demo: ``docs/benchmarks.md``, "Tried, not kept").
+    the Pose2Sim demo: ``docs/benchmarks.md``, "Tried, not kept"). The default period is the
+    sweep scored with the silhouettes; a sweep of the voxels alone keeps the period it was
+    measured at (``docs/benchmarks.md``, "How the default got here").
 
     Parameters
     ----------
@@ -240,13 +249,16 @@ def carving_config(config):
     Returns
     -------
     TrackConfig
-        ``config`` with ``filter.limb_sweep_silhouette = 0`` where it held the default, else
-        ``config`` itself.
+        ``config`` with ``filter.limb_sweep_silhouette = 0`` and ``filter.limb_sweep_every =``
+        :data:`VOXEL_SWEEP_EVERY` where they held the defaults; ``config`` itself when neither did.
     """
-    default = TrackConfig().filter.limb_sweep_silhouette
-    if config.filter.limb_sweep_silhouette != default:
-        return config
-    return with_overrides(config, **{"filter.limb_sweep_silhouette": 0.0})
+    default = TrackConfig().filter
+    overrides = {}
+    if config.filter.limb_sweep_silhouette == default.limb_sweep_silhouette:
+        overrides["filter.limb_sweep_silhouette"] = 0.0
+    if config.filter.limb_sweep_every == default.limb_sweep_every:
+        overrides["filter.limb_sweep_every"] = VOXEL_SWEEP_EVERY
+    return with_overrides(config, **overrides) if overrides else config
 
 
 def final_config(config, cues_given: bool = False):
