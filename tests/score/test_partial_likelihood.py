@@ -99,3 +99,26 @@ def test_states_that_leave_the_reference_are_refused():
     x[0, 0] += 1.0                                 # the root moved: not this scorer's job
     with pytest.raises(ValueError, match="outside dims"):
         scorer.counts(x)
+
+
+@pytest.mark.parametrize("n_states", [1, 5, 40])
+def test_the_one_thread_kernel_gives_the_parallel_ones_counts(n_states, monkeypatch):
+    """A batch of fewer than ``thread_waits.SERIAL_BELOW`` states (a compass search's) is counted
+    by ``partial_counts_serial``: the full counts, and the parallel kernel's, to the bit."""
+    from voxelmocap import thread_waits
+
+    rng = np.random.default_rng(n_states)
+    model = BodyModel()
+    grid = VoxelGrid((-1000.0, -1000.0, 0.0), 25.0, (80, 80, 80))
+    seen = _observation(model, rng, grid)
+    dims, parts = BODY_PARTITIONS[1]
+    ref = _reference(model, rng, grid)
+    xs = np.repeat(ref[None], n_states, axis=0)
+    d = list(dims)
+    xs[:, d] = rng.uniform(model.low[d], model.high[d], (n_states, len(d)))
+    got = []
+    for below in (0, 10 ** 6):                 # every batch in parallel, every one on one thread
+        monkeypatch.setattr(thread_waits, "SERIAL_BELOW", below)
+        got.append(PartialScorer(seen, model, ref, parts, dims).counts(xs))
+    np.testing.assert_array_equal(got[0], got[1])
+    np.testing.assert_array_equal(got[1], part_counts(seen, model, xs))

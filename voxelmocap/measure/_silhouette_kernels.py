@@ -185,73 +185,126 @@ def row_prefix(mask):
     return csum
 
 
+@njit(cache=True)
+def _cover_one(points, valid, csum, p):
+    """Pose ``p``'s ``(hit, extra)`` of :func:`cover_counts_prefixed`."""
+    n_parts, n_k = points.shape[1], points.shape[2]
+    h, w = csum.shape[0], csum.shape[1] - 1
+    order = np.empty(n_k, np.int64)
+    hx = np.empty((n_parts, 2 * n_k), np.float64)
+    hy = np.empty((n_parts, 2 * n_k), np.float64)
+    m = np.zeros(n_parts, np.int64)
+    q_lo = np.empty(n_parts, np.int64)
+    q_hi = np.empty(n_parts, np.int64)
+    span_lo = np.empty(n_parts, np.int64)
+    span_hi = np.empty(n_parts, np.int64)
+    r0, r1, c0, c1 = h, -1, w, -1
+    for q in range(n_parts):
+        q_lo[q], q_hi[q] = h, -1
+        if not valid[p, q] or not _drawable(points[p, q]):
+            continue
+        m[q] = _convex_hull(points[p, q, :, 0], points[p, q, :, 1], n_k, order, hx[q], hy[q])
+        for v in range(m[q]):
+            q_lo[q] = min(q_lo[q], int(np.ceil(hy[q, v])))
+            q_hi[q] = max(q_hi[q], int(np.floor(hy[q, v])))
+            c0 = min(c0, int(np.ceil(hx[q, v])))
+            c1 = max(c1, int(np.floor(hx[q, v])))
+        r0, r1 = min(r0, q_lo[q]), max(r1, q_hi[q])
+    r0, r1, c0, c1 = max(r0, 0), min(r1, h - 1), max(c0, 0), min(c1, w - 1)
+    n_hit = 0
+    n_extra = 0
+    if r1 >= r0 and c1 >= c0:
+        for i in range(r0, r1 + 1):
+            y = float(i)
+            k = 0
+            for q in range(n_parts):
+                nv = m[q]
+                if nv < 3 or i < q_lo[q] or i > q_hi[q]:
+                    continue
+                lo, hi = _row_extent(hx[q], hy[q], nv, y)
+                if hi < lo:
+                    continue
+                j0, j1 = max(int(np.ceil(lo)), c0), min(int(np.floor(hi)), c1)
+                if j1 < j0:
+                    continue
+                # insertion by start: at most n_parts spans a row
+                t = k
+                while t > 0 and span_lo[t - 1] > j0:
+                    span_lo[t], span_hi[t] = span_lo[t - 1], span_hi[t - 1]
+                    t -= 1
+                span_lo[t], span_hi[t] = j0, j1
+                k += 1
+            # the union of the spans, counted against the mask's prefix sums
+            a, b = 0, -1
+            for t in range(k):
+                if span_lo[t] > b:
+                    if b >= a:
+                        inside = csum[i, b + 1] - csum[i, a]
+                        n_hit += inside
+                        n_extra += b - a + 1 - inside
+                    a, b = span_lo[t], span_hi[t]
+                elif span_hi[t] > b:
+                    b = span_hi[t]
+            if b >= a:
+                inside = csum[i, b + 1] - csum[i, a]
+                n_hit += inside
+                n_extra += b - a + 1 - inside
+    return n_hit, n_extra
+
+
 @njit(cache=True, parallel=True)
 def cover_counts_prefixed(points, valid, csum, hit, extra):
     """:func:`cover_counts` against a mask given by its :func:`row_prefix` ``(H, W + 1)``."""
-    n_p, n_parts, n_k = points.shape[0], points.shape[1], points.shape[2]
-    h, w = csum.shape[0], csum.shape[1] - 1
-    for p in prange(n_p):
-        order = np.empty(n_k, np.int64)
-        hx = np.empty((n_parts, 2 * n_k), np.float64)
-        hy = np.empty((n_parts, 2 * n_k), np.float64)
-        m = np.zeros(n_parts, np.int64)
-        q_lo = np.empty(n_parts, np.int64)
-        q_hi = np.empty(n_parts, np.int64)
-        span_lo = np.empty(n_parts, np.int64)
-        span_hi = np.empty(n_parts, np.int64)
-        r0, r1, c0, c1 = h, -1, w, -1
-        for q in range(n_parts):
-            q_lo[q], q_hi[q] = h, -1
-            if not valid[p, q] or not _drawable(points[p, q]):
-                continue
-            m[q] = _convex_hull(points[p, q, :, 0], points[p, q, :, 1], n_k, order, hx[q], hy[q])
-            for v in range(m[q]):
-                q_lo[q] = min(q_lo[q], int(np.ceil(hy[q, v])))
-                q_hi[q] = max(q_hi[q], int(np.floor(hy[q, v])))
-                c0 = min(c0, int(np.ceil(hx[q, v])))
-                c1 = max(c1, int(np.floor(hx[q, v])))
-            r0, r1 = min(r0, q_lo[q]), max(r1, q_hi[q])
-        r0, r1, c0, c1 = max(r0, 0), min(r1, h - 1), max(c0, 0), min(c1, w - 1)
-        n_hit = 0
-        n_extra = 0
-        if r1 >= r0 and c1 >= c0:
-            for i in range(r0, r1 + 1):
-                y = float(i)
-                k = 0
-                for q in range(n_parts):
-                    nv = m[q]
-                    if nv < 3 or i < q_lo[q] or i > q_hi[q]:
-                        continue
-                    lo, hi = _row_extent(hx[q], hy[q], nv, y)
-                    if hi < lo:
-                        continue
-                    j0, j1 = max(int(np.ceil(lo)), c0), min(int(np.floor(hi)), c1)
-                    if j1 < j0:
-                        continue
-                    # insertion by start: at most n_parts spans a row
-                    t = k
-                    while t > 0 and span_lo[t - 1] > j0:
-                        span_lo[t], span_hi[t] = span_lo[t - 1], span_hi[t - 1]
-                        t -= 1
-                    span_lo[t], span_hi[t] = j0, j1
-                    k += 1
-                # the union of the spans, counted against the mask's prefix sums
-                a, b = 0, -1
-                for t in range(k):
-                    if span_lo[t] > b:
-                        if b >= a:
-                            inside = csum[i, b + 1] - csum[i, a]
-                            n_hit += inside
-                            n_extra += b - a + 1 - inside
-                        a, b = span_lo[t], span_hi[t]
-                    elif span_hi[t] > b:
-                        b = span_hi[t]
-                if b >= a:
-                    inside = csum[i, b + 1] - csum[i, a]
-                    n_hit += inside
-                    n_extra += b - a + 1 - inside
-        hit[p] = n_hit
-        extra[p] = n_extra
+    for p in prange(points.shape[0]):
+        hit[p], extra[p] = _cover_one(points, valid, csum, p)
+
+
+@njit(cache=True)
+def cover_counts_prefixed_serial(points, valid, csum, hit, extra):
+    """:func:`cover_counts_prefixed` on one thread: for a few poses
+    (:func:`voxelmocap.thread_waits.serial`)."""
+    for p in range(points.shape[0]):
+        hit[p], extra[p] = _cover_one(points, valid, csum, p)
+
+
+@njit(cache=True)
+def _outline_one(base, axis, u1, u2, shape, cosines, sines, rot, trans, fc, cc, alpha, kc,
+                 scale, points, valid, p):
+    """Pose ``p``'s outline points and validity of :func:`outline_points`."""
+    n_parts = base.shape[1]
+    n = cosines.shape[0]
+    k1, k2, p1, p2, k3 = kc[0], kc[1], kc[2], kc[3], kc[4]
+    for q in range(n_parts):
+        h, w, length, ratio = shape[q, 4], shape[q, 5], shape[q, 2], shape[q, 6]
+        ok = True
+        for end in range(2):
+            s = 1.0 if end == 0 else ratio
+            t = 0.0 if end == 0 else length
+            for k in range(n):
+                hc, ws = s * h * cosines[k], s * w * sines[k]
+                wx = base[p, q, 0] + t * axis[p, q, 0] + hc * u1[p, q, 0] + ws * u2[p, q, 0]
+                wy = base[p, q, 1] + t * axis[p, q, 1] + hc * u1[p, q, 1] + ws * u2[p, q, 1]
+                wz = base[p, q, 2] + t * axis[p, q, 2] + hc * u1[p, q, 2] + ws * u2[p, q, 2]
+                xc = rot[0, 0] * wx + rot[0, 1] * wy + rot[0, 2] * wz + trans[0]
+                yc = rot[1, 0] * wx + rot[1, 1] * wy + rot[1, 2] * wz + trans[1]
+                zc = rot[2, 0] * wx + rot[2, 1] * wy + rot[2, 2] * wz + trans[2]
+                i = end * n + k
+                if not zc > 1.0:
+                    ok = False
+                    points[p, q, i, 0] = 0.0
+                    points[p, q, i, 1] = 0.0
+                    continue
+                a = xc / zc
+                b = yc / zc
+                r2 = a * a + b * b
+                radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
+                xd = a * radial + 2.0 * p1 * a * b + p2 * (r2 + 2.0 * a * a)
+                yd = b * radial + p1 * (r2 + 2.0 * b * b) + 2.0 * p2 * a * b
+                u = fc[0] * (xd + alpha * yd) + cc[0]
+                v = fc[1] * yd + cc[1]
+                points[p, q, i, 0] = (u + 0.5) * scale[0] - 0.5
+                points[p, q, i, 1] = (v + 0.5) * scale[1] - 0.5
+        valid[p, q] = ok
 
 
 @njit(cache=True, parallel=True)
@@ -276,38 +329,17 @@ def outline_points(base, axis, u1, u2, shape, cosines, sines, rot, trans, fc, cc
     valid : (P, n_parts) bool ndarray
         Output: every point in front of the camera (depth > 1 mm).
     """
-    n_p, n_parts = base.shape[0], base.shape[1]
-    n = cosines.shape[0]
-    k1, k2, p1, p2, k3 = kc[0], kc[1], kc[2], kc[3], kc[4]
-    for p in prange(n_p):
-        for q in range(n_parts):
-            h, w, length, ratio = shape[q, 4], shape[q, 5], shape[q, 2], shape[q, 6]
-            ok = True
-            for end in range(2):
-                s = 1.0 if end == 0 else ratio
-                t = 0.0 if end == 0 else length
-                for k in range(n):
-                    hc, ws = s * h * cosines[k], s * w * sines[k]
-                    wx = base[p, q, 0] + t * axis[p, q, 0] + hc * u1[p, q, 0] + ws * u2[p, q, 0]
-                    wy = base[p, q, 1] + t * axis[p, q, 1] + hc * u1[p, q, 1] + ws * u2[p, q, 1]
-                    wz = base[p, q, 2] + t * axis[p, q, 2] + hc * u1[p, q, 2] + ws * u2[p, q, 2]
-                    xc = rot[0, 0] * wx + rot[0, 1] * wy + rot[0, 2] * wz + trans[0]
-                    yc = rot[1, 0] * wx + rot[1, 1] * wy + rot[1, 2] * wz + trans[1]
-                    zc = rot[2, 0] * wx + rot[2, 1] * wy + rot[2, 2] * wz + trans[2]
-                    i = end * n + k
-                    if not zc > 1.0:
-                        ok = False
-                        points[p, q, i, 0] = 0.0
-                        points[p, q, i, 1] = 0.0
-                        continue
-                    a = xc / zc
-                    b = yc / zc
-                    r2 = a * a + b * b
-                    radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
-                    xd = a * radial + 2.0 * p1 * a * b + p2 * (r2 + 2.0 * a * a)
-                    yd = b * radial + p1 * (r2 + 2.0 * b * b) + 2.0 * p2 * a * b
-                    u = fc[0] * (xd + alpha * yd) + cc[0]
-                    v = fc[1] * yd + cc[1]
-                    points[p, q, i, 0] = (u + 0.5) * scale[0] - 0.5
-                    points[p, q, i, 1] = (v + 0.5) * scale[1] - 0.5
-            valid[p, q] = ok
+    for p in prange(base.shape[0]):
+        _outline_one(base, axis, u1, u2, shape, cosines, sines, rot, trans, fc, cc, alpha, kc,
+                     scale, points, valid, p)
+
+
+@njit(cache=True)
+def outline_points_serial(base, axis, u1, u2, shape, cosines, sines, rot, trans, fc, cc, alpha,
+                          kc, scale, points, valid):
+    """:func:`outline_points` on one thread: for a few poses
+    (:func:`voxelmocap.thread_waits.serial`)."""
+    for p in range(base.shape[0]):
+        _outline_one(base, axis, u1, u2, shape, cosines, sines, rot, trans, fc, cc, alpha, kc,
+                     scale, points, valid, p)
+

@@ -161,39 +161,58 @@ def _moving_do(bb, runs, box, table, static_ids, counts, static_do, olo, ohi, ki
         counts[q, 2] = do
 
 
+@njit(cache=True)
+def _partial_chunk(c, n_chunks, base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice, qmax,
+                   box, table, static_ids, counts, static_do):
+    """Particles ``c, c + n_chunks, …`` of :func:`partial_counts`."""
+    n_particles = base.shape[0]
+    n_parts = shape.shape[0]
+    bb = np.empty((n_parts, 7), np.int64)
+    runs = np.empty((512, 2), np.int64)
+    cover = np.empty((512, n_parts, 3), np.int64)
+    cover_n = np.empty(512, np.int64)
+    multi = np.empty(512, np.int64)
+    terms = np.empty((7, 256))
+    n_all = n_parts + table.shape[2]
+    olo = np.empty(n_all, np.int64)
+    ohi = np.empty(n_all, np.int64)
+    kind = np.empty(n_all, np.int64)
+    plo = np.empty(n_all, np.int64)
+    phi = np.empty(n_all, np.int64)
+    slo = np.empty(n_all, np.int64)
+    shi = np.empty(n_all, np.int64)
+    for p in range(c, n_particles, n_chunks):
+        total = _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
+        if total > runs.shape[0]:
+            runs = np.empty((2 * total, 2), np.int64)
+        ncol = _union_columns(bb)
+        if ncol > cover_n.shape[0]:
+            cover = np.empty((2 * ncol, n_parts, 3), np.int64)
+            cover_n = np.empty(2 * ncol, np.int64)
+            multi = np.empty(2 * ncol, np.int64)
+        terms = _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms)
+        _score(lattice, prefix, qmax, bb, runs, cover, cover_n, multi, counts[p])
+        _moving_do(bb, runs, box, table, static_ids, counts[p], static_do[p], olo, ohi, kind,
+                   plo, phi, slo, shi)
+
+
 @njit(cache=True, parallel=True)
 def partial_counts(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice, qmax, box, table,
                    static_ids, n_chunks, counts, static_do):
     """Counts of the moving parts ``counts (P, n_moving, 6)`` and the static parts' DO gains
     ``static_do (P, n_parts)`` for every particle (geometry arrays hold the moving parts only)."""
-    n_particles = base.shape[0]
-    n_parts = shape.shape[0]
-    n_chunks = max(1, min(n_particles, n_chunks))
+    n_chunks = max(1, min(base.shape[0], n_chunks))
     for c in prange(n_chunks):
-        bb = np.empty((n_parts, 7), np.int64)
-        runs = np.empty((512, 2), np.int64)
-        cover = np.empty((512, n_parts, 3), np.int64)
-        cover_n = np.empty(512, np.int64)
-        multi = np.empty(512, np.int64)
-        terms = np.empty((7, 256))
-        n_all = n_parts + table.shape[2]
-        olo = np.empty(n_all, np.int64)
-        ohi = np.empty(n_all, np.int64)
-        kind = np.empty(n_all, np.int64)
-        plo = np.empty(n_all, np.int64)
-        phi = np.empty(n_all, np.int64)
-        slo = np.empty(n_all, np.int64)
-        shi = np.empty(n_all, np.int64)
-        for p in range(c, n_particles, n_chunks):
-            total = _boxes(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb)
-            if total > runs.shape[0]:
-                runs = np.empty((2 * total, 2), np.int64)
-            ncol = _union_columns(bb)
-            if ncol > cover_n.shape[0]:
-                cover = np.empty((2 * ncol, n_parts, 3), np.int64)
-                cover_n = np.empty(2 * ncol, np.int64)
-                multi = np.empty(2 * ncol, np.int64)
-            terms = _runs(p, base, axis, u1, u2, shape, ox, oy, oz, vs, bb, runs, terms)
-            _score(lattice, prefix, qmax, bb, runs, cover, cover_n, multi, counts[p])
-            _moving_do(bb, runs, box, table, static_ids, counts[p], static_do[p], olo, ohi, kind,
-                       plo, phi, slo, shi)
+        _partial_chunk(c, n_chunks, base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice,
+                       qmax, box, table, static_ids, counts, static_do)
+
+
+@njit(cache=True)
+def partial_counts_serial(base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice, qmax, box,
+                          table, static_ids, n_chunks, counts, static_do):
+    """:func:`partial_counts` on one thread, the same chunks in turn: for a few particles
+    (:func:`voxelmocap.thread_waits.serial`)."""
+    n_chunks = max(1, min(base.shape[0], n_chunks))
+    for c in range(n_chunks):
+        _partial_chunk(c, n_chunks, base, axis, u1, u2, shape, ox, oy, oz, vs, prefix, lattice,
+                       qmax, box, table, static_ids, counts, static_do)

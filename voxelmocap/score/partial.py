@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..thread_waits import serial
 from . import _partial_kernels as _pk
 from . import _raster_kernels as _k
 from .likelihood import DEFAULT_VARIANCES, QMAX, VoxelObservation, log_likelihood_from_counts
@@ -102,13 +103,12 @@ class PartialScorer:
         moving = np.zeros((n, self.parts.size, _k.N_COUNTS), dtype=np.int64)
         static_do = np.zeros((n, len(self.model.parts)), dtype=np.int64)
         p = self.parts
-        _pk.partial_counts(np.ascontiguousarray(geo.base[:, p]),
-                           np.ascontiguousarray(geo.axis[:, p]),
-                           np.ascontiguousarray(geo.u1[:, p]), np.ascontiguousarray(geo.u2[:, p]),
-                           self._shape, *g.origin, g.voxel_size, self.observation.prefix,
-                           self.observation.prefix_lattice, QMAX,
-                           self._box, self._table, self.static,
-                           _k.default_chunks(), moving, static_do)
+        count = _pk.partial_counts_serial if serial(n) else _pk.partial_counts
+        count(np.ascontiguousarray(geo.base[:, p]), np.ascontiguousarray(geo.axis[:, p]),
+              np.ascontiguousarray(geo.u1[:, p]), np.ascontiguousarray(geo.u2[:, p]),
+              self._shape, *g.origin, g.voxel_size, self.observation.prefix,
+              self.observation.prefix_lattice, QMAX, self._box, self._table, self.static,
+              _k.default_chunks(), moving, static_do)
         out = np.repeat(self._static_counts[None], n, axis=0)
         out[:, :, 2] += static_do
         out[:, p] = moving

@@ -90,3 +90,43 @@ def test_the_sweep_finds_the_same_limbs_with_the_partial_cue(scene):
     b, _ = sweep_limbs(scene, MODEL, start, scoring=part, sweeps=1, samples=64)
     assert sum(gains.values()) > 0
     np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("n_states", [3, 40])
+def test_the_one_thread_kernels_give_the_parallel_ones_values(scene, monkeypatch, n_states):
+    """``cover_counts_prefixed`` and ``outline_points`` and their ``_serial`` twins (a batch of
+    fewer than ``SERIAL_BELOW`` poses): the same outline points, counts and cue values to the
+    bit, whole or partial, whichever the batch's size would pick."""
+    from voxelmocap import thread_waits
+    from voxelmocap.score.cues.contours import outline_pixels
+    from voxelmocap.score.cues.partial import _geometry
+
+    dims, parts = LIMBS["r_arm"]
+    config = CuesConfig(weights={"silhouette": 1.0})
+    cues = CueSet(MODEL, config)
+    reference = MODEL.default_state()
+    rng = np.random.default_rng(n_states)
+    states = np.repeat(reference[None], n_states, axis=0)
+    lo, hi = MODEL.low[list(dims)], MODEL.high[list(dims)]
+    states[:, list(dims)] = lo + rng.random((n_states, len(dims))) * (hi - lo)
+    geo = _geometry(MODEL, states)
+    camera = scene.cameras[1]
+    mask = scene.masks[1]
+    got = {}
+    for below in (0, 10 ** 6):                          # every batch parallel, every one serial
+        monkeypatch.setattr(thread_waits, "SERIAL_BELOW", below)
+        points, valid = outline_pixels(geo, camera, (1.0, 1.0))
+        count = sk.cover_counts_prefixed_serial if thread_waits.serial(n_states) \
+            else sk.cover_counts_prefixed
+        hit, extra = np.empty(n_states, np.int64), np.empty(n_states, np.int64)
+        count(points, valid, sk.row_prefix(mask), hit, extra)
+        partial = PartialSilhouette(cues.prepare(scene), MODEL, config, reference, parts)
+        got[below] = (points, valid, hit, extra, cues.evaluate(scene, states)["silhouette"],
+                      partial(states))
+    assert thread_waits.serial(1) and not thread_waits.serial(thread_waits.SERIAL_BELOW)
+    for a, b in zip(got[0], got[10 ** 6], strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert got[0][2].sum() > 0                           # the arm's cones cover silhouette pixels
+    hit_ref, extra_ref = np.empty(n_states, np.int64), np.empty(n_states, np.int64)
+    sk.cover_counts(got[0][0], got[0][1], mask, hit_ref, extra_ref)
+    np.testing.assert_array_equal(got[0][2], hit_ref)

@@ -45,6 +45,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...thread_waits import serial
+
 __all__ = ["body_mask", "contour_angles", "contour_points", "outline_pixels", "project_contours",
            "project_outlines"]
 
@@ -201,14 +203,13 @@ def outline_pixels(geo, camera, scale, *, n: int = OUTLINE_POINTS
     n_p, n_parts = geo.base.shape[:2]
     points = np.empty((n_p, n_parts, 2 * n, 2))
     valid = np.empty((n_p, n_parts), np.bool_)
-    _sk.outline_points(np.ascontiguousarray(geo.base), np.ascontiguousarray(geo.axis),
-                       np.ascontiguousarray(geo.u1), np.ascontiguousarray(geo.u2),
-                       np.ascontiguousarray(geo.shape), cos, sin,
-                       np.ascontiguousarray(camera.R, dtype=float),
-                       np.asarray(camera.T, dtype=float), np.asarray(camera.fc, dtype=float),
-                       np.asarray(camera.cc, dtype=float), float(camera.alpha_c),
-                       np.asarray(camera.kc, dtype=float), np.asarray(scale, dtype=float),
-                       points, valid)
+    kernel = _sk.outline_points_serial if serial(n_p) else _sk.outline_points
+    kernel(np.ascontiguousarray(geo.base), np.ascontiguousarray(geo.axis),
+           np.ascontiguousarray(geo.u1), np.ascontiguousarray(geo.u2),
+           np.ascontiguousarray(geo.shape), cos, sin, np.ascontiguousarray(camera.R, dtype=float),
+           np.asarray(camera.T, dtype=float), np.asarray(camera.fc, dtype=float),
+           np.asarray(camera.cc, dtype=float), float(camera.alpha_c),
+           np.asarray(camera.kc, dtype=float), np.asarray(scale, dtype=float), points, valid)
     return points, valid
 
 
