@@ -31,8 +31,9 @@ def no_plate(walk_dataset, tmp_path_factory):
 
 def test_a_carving_run_counts_as_done_for_its_request(no_plate):
     """The one-pass carving run records its pass's config (the periodic sweep's default
-    silhouette weight dropped, ``run.plan.carving_config``); ``--all`` counts it as done for the
-    config it was asked to track with, and not for another."""
+    silhouette weight dropped and its period that of a sweep of the voxels alone,
+    ``run.plan.carving_config``); ``--all`` counts it as done for the config it was asked to
+    track with, and not for another."""
     from voxelmocap.config import config_from_toml, config_to_toml
     from voxelmocap.run.batch import result_is_done
 

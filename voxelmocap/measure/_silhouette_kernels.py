@@ -1,10 +1,16 @@
-"""Numba kernel of :meth:`voxelmocap.measure.silhouette.GaussianBackground.foreground` (one component).
+"""Numba kernels of the silhouettes: the background test and the body's image counted against a mask.
 
-NumPy evaluates the per-pixel Gaussian log-likelihood through whole-image temporaries (the
-difference, its square, the weighted channel sum, the constant) on one core; at 7 cameras this
-was half of the measurement stage. The kernel does the same float32 arithmetic in the same order
-per pixel, rows spread over the cores, and writes the mask directly
-(``tests/measure/test_silhouette.py`` compares it with the NumPy expression).
+* :func:`gaussian_foreground` — :meth:`voxelmocap.measure.silhouette.GaussianBackground.foreground`
+  (one component). NumPy evaluates the per-pixel Gaussian log-likelihood through whole-image
+  temporaries (the difference, its square, the weighted channel sum, the constant) on one core;
+  at 7 cameras this was half of the measurement stage. The kernel does the same float32
+  arithmetic in the same order per pixel, rows spread over the cores, and writes the mask
+  directly (``tests/measure/test_silhouette.py`` compares it with the NumPy expression).
+* :func:`outline_points`, :func:`cover_counts`, :func:`cover_counts_prefixed`, :func:`draw_parts`,
+  :func:`row_prefix` — the silhouette cue (:mod:`voxelmocap.score.cues`): each part's projected
+  outline, its convex image rasterised at pixel centres and counted inside and outside a mask;
+  ``_serial`` twins of the first and third for a few poses (:func:`voxelmocap.thread_waits.serial`),
+  sharing each pose's code.
 """
 
 from __future__ import annotations
@@ -342,4 +348,3 @@ def outline_points_serial(base, axis, u1, u2, shape, cosines, sines, rot, trans,
     for p in range(base.shape[0]):
         _outline_one(base, axis, u1, u2, shape, cosines, sines, rot, trans, fc, cc, alpha, kc,
                      scale, points, valid, p)
-

@@ -239,8 +239,10 @@ def carving_config(config):
     as background: its silhouettes lack those parts (a standing leg, a still trunk), so the cue
     would pull the sweep's limbs off them (the silhouette cue tracked in that pass was worse on
     the Pose2Sim demo: ``docs/benchmarks.md``, "Tried, not kept"). The default period is the
-    sweep scored with the silhouettes; a sweep of the voxels alone keeps the period it was
-    measured at (``docs/benchmarks.md``, "How the default got here").
+    sweep scored with the silhouettes; the carving pass keeps the period the sweep had before
+    them, which it was measured at (``docs/benchmarks.md``, "How the default got here"), also
+    when the config chose a sweep weight. Defaults are recognised by value: a config that sets
+    ``limb_sweep_every = 5`` (the default) gets 10 in the carving pass; any other value stands.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Numba kernels of the partial re-scoring behind :class:`voxelmocap.score.likelihood.PartialScorer`.
+"""Numba kernels of the partial re-scoring behind :class:`voxelmocap.score.partial.PartialScorer`.
 
 When only some parts move (a limb layer of the hierarchical search), the counts of the parts
 that stay put change only through double occupancy (DO): their own voxels, Out, Occ and surface
