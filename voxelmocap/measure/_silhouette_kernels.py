@@ -9,8 +9,8 @@
 * :func:`outline_points`, :func:`cover_counts`, :func:`cover_counts_prefixed`, :func:`draw_parts`,
   :func:`row_prefix` — the silhouette cue (:mod:`voxelmocap.score.cues`): each part's projected
   outline, its convex image rasterised at pixel centres and counted inside and outside a mask;
-  ``_serial`` twins of the first and third for a few poses (:func:`voxelmocap.thread_waits.serial`),
-  sharing each pose's code.
+  ``_serial`` twins of the first and third for a few poses (:func:`voxelmocap.thread_waits.serial`;
+  :func:`count_cover` picks for the counts), sharing each pose's code.
 """
 
 from __future__ import annotations
@@ -172,7 +172,7 @@ def cover_counts(points, valid, mask, hit, extra):
     hit, extra : (P,) int64 ndarray
         Output: drawn pixels inside / outside the silhouette.
     """
-    cover_counts_prefixed(points, valid, row_prefix(mask), hit, extra)
+    count_cover(points, valid, row_prefix(mask), hit, extra)
 
 
 @njit(cache=True)
@@ -271,6 +271,15 @@ def cover_counts_prefixed_serial(points, valid, csum, hit, extra):
     (:func:`voxelmocap.thread_waits.serial`)."""
     for p in range(points.shape[0]):
         hit[p], extra[p] = _cover_one(points, valid, csum, p)
+
+
+def count_cover(points, valid, csum, hit, extra):
+    """:func:`cover_counts_prefixed`, on one thread for a few poses
+    (:func:`voxelmocap.thread_waits.serial`): the same values either way."""
+    from ..thread_waits import serial
+
+    kernel = cover_counts_prefixed_serial if serial(points.shape[0]) else cover_counts_prefixed
+    kernel(points, valid, csum, hit, extra)
 
 
 @njit(cache=True)

@@ -17,7 +17,6 @@ import types
 import numpy as np
 
 from ...measure import _silhouette_kernels as _sk
-from ...thread_waits import serial
 from .contours import outline_pixels
 
 __all__ = ["PartialSilhouette", "WeightedPartialSilhouette"]
@@ -87,11 +86,10 @@ class PartialSilhouette:
         geo = _geometry(self.model, states, self.parts)
         out = np.zeros(n)
         hit, extra, scratch = (np.empty(n, np.int64) for _ in range(3))
-        count = _sk.cover_counts_prefixed_serial if serial(n) else _sk.cover_counts_prefixed
         for camera, scale, total, hit0, extra0, free_in, free_out in self.views:
             points, valid = outline_pixels(geo, camera, scale)
-            count(points, valid, free_in, hit, scratch)
-            count(points, valid, free_out, extra, scratch)
+            _sk.count_cover(points, valid, free_in, hit, scratch)
+            _sk.count_cover(points, valid, free_out, extra, scratch)
             # the whole cue's integers, then its arithmetic in its order
             uncovered = total - (hit0 + hit)
             out -= (uncovered + (extra0 + extra)) / total / self.scale

@@ -30,7 +30,6 @@ from __future__ import annotations
 import numpy as np
 
 from ...measure import _silhouette_kernels as _sk
-from ...thread_waits import serial
 from . import _cue_kernels as _k
 from .contours import outline_pixels, project_contours
 
@@ -430,9 +429,8 @@ class SilhouetteCue(Cue):
             pixels, valid = outline_pixels(views.geometry, frame.cameras[c], scale)
             hit = np.empty(views.n, np.int64)
             extra = np.empty(views.n, np.int64)
-            count = (_sk.cover_counts_prefixed_serial if serial(views.n)
-                     else _sk.cover_counts_prefixed)
-            count(pixels, valid, frame.silhouette_prefix(c, cfg.silhouette_size), hit, extra)
+            _sk.count_cover(pixels, valid, frame.silhouette_prefix(c, cfg.silhouette_size), hit,
+                            extra)
             known = frame.silhouette_known(c, cfg.silhouette_size) \
                 if cfg.silhouette_unseen == "ignore" else None
             if known is None:
