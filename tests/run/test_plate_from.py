@@ -458,6 +458,23 @@ def test_a_last_pass_after_a_failed_one_repeats_it(no_answer_run, tmp_path, monk
     np.testing.assert_array_equal(final.state, second.state)
 
 
+def test_each_pass_starts_by_returning_freed_memory(long_walk, tmp_path, monkeypatch):
+    """The run hands the allocator's free memory back before each pass (also one read back on
+    ``--resume``), so that the pass before's and this pass's plate learning do not add up:
+    three passes, three calls."""
+    from voxelmocap.run import memory
+
+    data, run = long_walk
+    out = tmp_path / "run"
+    shutil.copytree(run, out)
+    shutil.rmtree(out / "S1" / "pass2")          # pass 1 read back, passes 2 and 3 tracked
+    (out / "S1" / "Walking_1.h5").unlink()
+    calls = []
+    monkeypatch.setattr(memory, "release_freed_memory", lambda: calls.append(1) or True)
+    assert main(_args(data, "--out", str(out), "--resume")) == 0
+    assert len(calls) == 3
+
+
 def test_a_pass_that_lost_the_person_ends_the_passes(long_walk, tmp_path, capsys, monkeypatch):
     """Pass 2's plate, learnt around pass 1's body, finds the person in fewer frames than pass
     1's did (under LOST_SHARE of them, counts faked as in ``_saw_too_few``): the last pass

@@ -69,6 +69,7 @@ def track(request: TrackRequest) -> TrackOutcome:
     from ..io.working_size import AtMostSide, at_most_side
     from .bodies import tracked_body
     from .frame_loop import PassRun
+    from .memory import release_freed_memory, resident_mib
     from .plan import LOST_SHARE, MIN_BODY_FRAMES, plan_passes
 
     def say(message: str, level: int = logging.INFO) -> None:
@@ -113,6 +114,13 @@ def track(request: TrackRequest) -> TrackOutcome:
         p = passes[k]
         if len(passes) > 1:
             say(f"tracking pass {p.number} of {p.of} → {request.result_paths(seq, p.folder)[0]}")
+        # What the pass before (or the sequence before, in a batch) freed goes back to the
+        # system before this pass's plate learning takes its frames: the run's peak memory
+        # otherwise holds both (.memory)
+        resident = resident_mib()
+        if release_freed_memory() and resident is not None:
+            say(f"memory before pass {p.number}: {resident:.0f} MiB resident, "
+                f"{resident_mib():.0f} MiB once the freed memory was returned", logging.DEBUG)
         outcome = PassRun(request, seq, gt, selected, p, body, say).run(person_masks)
         if p.last:
             return outcome
