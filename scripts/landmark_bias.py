@@ -5,7 +5,7 @@ vector of every landmark is expressed in the pelvis frame of the ground truth (x
 hip, z: pelvis → thorax made orthogonal, y = z × x) and averaged over the frames. A large mean
 offset that stays put over the clip is a body-model matter (where the model puts the joint); what
 is left after removing it is the pose error. Prints μ, μ after removing the offsets, and the size
-of each landmark's offset.
+of each landmark's offset, and each wrist's and ankle's error along its estimated limb.
 
 Usage::
 
@@ -42,6 +42,24 @@ def body_frame_errors(est, gt):
     return np.einsum("fij,flj->fli", rot, est - gt)
 
 
+#: The limbs' ends and the joints before them: the end's error along the estimated limb.
+LIMB_ENDS = (("l_elbow", "l_wrist"), ("r_elbow", "r_wrist"), ("l_knee", "l_ankle"),
+             ("r_knee", "r_ankle"))
+
+
+def along_limb(est, gt) -> np.ndarray:
+    """``(4,)`` mean component (mm) of each limb end's error along its estimated limb (elbow →
+    wrist, knee → ankle; :data:`LIMB_ENDS`), landmarks ``(F, 15, 3)``: positive = beyond the
+    true joint, as when a cone takes in the hand or the foot."""
+    index = {n: i for i, n in enumerate(LANDMARK_NAMES)}
+    out = []
+    for joint, end in LIMB_ENDS:
+        axis = est[:, index[end]] - est[:, index[joint]]
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        out.append(np.sum((est[:, index[end]] - gt[:, index[end]]) * axis, axis=1).mean())
+    return np.array(out)
+
+
 def runs(run: Path, data: str | None, renders: str | None):
     """``(label, result, ground-truth xml)`` of every result in ``run``."""
     if renders is not None:   # a bench_facing.py tag folder
@@ -67,7 +85,7 @@ def main() -> None:
     where.add_argument("--data", help="the rendered clips (with ground truth)")
     where.add_argument("--renders", help="bench_facing.py's renders folder (OUT/renders)")
     args = parser.parse_args()
-    errors = []
+    errors, along = [], []
     for label, h5, xml in runs(Path(args.run), args.data, args.renders):
         ev = score_against(h5, xml, delta=100.0)
         est, gt = endpoints_to_landmarks(ev.est), endpoints_to_landmarks(ev.gt)
@@ -82,9 +100,14 @@ def main() -> None:
                                                         strict=True)))
         print("   offsets: " + " ".join(f"{n} {np.linalg.norm(b):.0f}"
                                         for n, b in zip(LANDMARK_NAMES, bias, strict=True)))
+        along.append(along_limb(est, gt))
+        print("   along the limb: " + " ".join(f"{e} {a:+.0f}" for (_, e), a
+                                               in zip(LIMB_ENDS, along[-1], strict=True)))
     if errors:
         print(f"mean error over {len(errors)} runs: " + " ".join(
             f"{n} {e:.0f}" for n, e in zip(LANDMARK_NAMES, np.mean(errors, axis=0), strict=True)))
+        print("mean along the limb: " + " ".join(
+            f"{e} {a:+.1f}" for (_, e), a in zip(LIMB_ENDS, np.mean(along, axis=0), strict=True)))
 
 
 if __name__ == "__main__":

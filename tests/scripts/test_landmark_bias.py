@@ -36,6 +36,27 @@ def test_a_constant_offset_in_the_body_frame_is_found_in_every_frame(bias):
     np.testing.assert_allclose(d, np.broadcast_to(offset, d.shape), atol=1e-9)
 
 
+def test_a_limb_end_moved_along_its_limb_counts_along_it(bias):
+    """Each wrist and ankle of random poses moved beyond (or short of) its joint along the limb
+    by a known length: the component along the estimated limb is that length; the true ends
+    read zero."""
+    from voxelmocap.joints import LANDMARK_NAMES
+
+    rng = np.random.default_rng(9)
+    model = BodyModel()
+    states = model.clip(model.default_state()[None] + rng.normal(size=(8, 27)) * np.r_[
+        np.full(3, 50.0), np.full(24, 0.3)])
+    gt = model.landmarks(states)
+    index = {n: i for i, n in enumerate(LANDMARK_NAMES)}
+    est = gt.copy()
+    lengths = (10.0, 20.0, -15.0, 30.0)
+    for (joint, end), length in zip(bias.LIMB_ENDS, lengths, strict=True):
+        axis = gt[:, index[end]] - gt[:, index[joint]]
+        est[:, index[end]] += length * axis / np.linalg.norm(axis, axis=1, keepdims=True)
+    np.testing.assert_allclose(bias.along_limb(est, gt), lengths, atol=1e-9)
+    np.testing.assert_allclose(bias.along_limb(gt, gt), 0.0, atol=1e-12)
+
+
 def test_finds_the_runs_of_a_bench_facing_tag_folder(bias, tmp_path):
     for render, seed in (("Jog_h0_n1_f100", 0), ("Jog_h0_n1_f100", 2), ("Box_h45_n2_f40", 1)):
         folder = tmp_path / "tag" / render / f"seed{seed}" / "S2"
