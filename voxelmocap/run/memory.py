@@ -6,8 +6,8 @@ leaves 1.0–1.3 GiB resident of which about 0.6 GiB is such freed memory (its f
 masks and likelihood buffers, freed in the order they were made), and the next pass's plate
 learning takes its sampled frames as new mappings (arrays above the allocator's mmap threshold)
 rather than from that free memory: the two add up to the run's peak. Handing the free memory
-back at each pass's end lowered the demo's peak from 1.69 to 1.37 GiB (seed 0, the results the
-same to the bit; ``docs/benchmarks.md``).
+back before each pass (:func:`voxelmocap.run.pipeline.track`) lowered the demo's peak from 1.69
+to 1.37 GiB (seed 0, the results the same to the bit; ``docs/benchmarks.md``).
 
 Elsewhere (another C library, macOS, Windows) there is nothing to call and nothing is done.
 
