@@ -37,9 +37,15 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+from voxelmocap import cpu_paths
 
-from voxelmocap.config import CuesConfig, TrackConfig, with_overrides
+# Before NumPy loads: the NumPy loops and OpenBLAS kernels `voxelmocap track` runs with, so that
+# these runs are the command's on any CPU (voxelmocap.cpu_paths).
+cpu_paths.pin()
+
+import numpy as np  # noqa: E402
+
+from voxelmocap.config import CuesConfig, TrackConfig, with_overrides  # noqa: E402
 
 CLIPS = ["S1/Walking_1", "S2/Jog_1", "S3/Box_1", "S4/Gestures_1", "S5/Combo_1"]
 CAMERA_SETS = {"7": None, "2": ["C1", "C2"], "1": ["C1"]}

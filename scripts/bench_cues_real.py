@@ -29,8 +29,14 @@ import sys
 import time
 from pathlib import Path
 
+from voxelmocap import cpu_paths
+
+# Before NumPy loads: the NumPy loops and OpenBLAS kernels `voxelmocap track` runs with, so that
+# these runs are the command's on any CPU (voxelmocap.cpu_paths).
+cpu_paths.pin()
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_cues import HIERARCHICAL, SETTINGS
+from bench_cues import HIERARCHICAL, SETTINGS  # noqa: E402
 
 DEMO = Path("/work/p2s/x/Pose2Sim/Demo_SinglePerson")
 REF = Path("/work/p2s_ref")

@@ -80,11 +80,18 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
-import numpy as np
+from voxelmocap import cpu_paths
+
+# Before NumPy loads, here and in the spawned workers (they inherit the environment): the NumPy
+# loops and OpenBLAS kernels `voxelmocap track` runs with, so that these runs are the command's on
+# any CPU (unpinned, an Intel and an AMD AVX-512 server track the same renders apart).
+cpu_paths.pin()
+
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import CLIPS, MOCAP
-from bench_no_answer import parse_sets, stripped_copy
+from bench_accuracy import CLIPS, MOCAP  # noqa: E402
+from bench_no_answer import parse_sets, stripped_copy  # noqa: E402
 
 #: Starting headings of the facing protocol (degrees, counter-clockwise seen from above).
 HEADINGS = tuple(range(0, 360, 45))

@@ -28,14 +28,20 @@ import shutil
 import time
 from pathlib import Path
 
-import numpy as np
-from bench_accuracy import CLIPS, MOCAP
+from voxelmocap import cpu_paths
 
-from voxelmocap.config import TrackConfig, with_overrides
-from voxelmocap.io.humaneva import Dataset
-from voxelmocap.io.reports import score_against
-from voxelmocap.run.pipeline import track_sequence
-from voxelmocap.synth import generate
+# Before NumPy loads: the NumPy loops and OpenBLAS kernels `voxelmocap track` runs with, so that
+# these runs are the command's on any CPU (voxelmocap.cpu_paths).
+cpu_paths.pin()
+
+import numpy as np  # noqa: E402
+from bench_accuracy import CLIPS, MOCAP  # noqa: E402
+
+from voxelmocap.config import TrackConfig, with_overrides  # noqa: E402
+from voxelmocap.io.humaneva import Dataset  # noqa: E402
+from voxelmocap.io.reports import score_against  # noqa: E402
+from voxelmocap.run.pipeline import track_sequence  # noqa: E402
+from voxelmocap.synth import generate  # noqa: E402
 
 
 def stripped_copy(data: Path, subject: str, dest: Path, *, keep_body: bool = False,

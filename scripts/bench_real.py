@@ -53,8 +53,14 @@ import argparse
 import time
 from pathlib import Path
 
-import cv2
-import numpy as np
+from voxelmocap import cpu_paths
+
+# Before NumPy loads: the NumPy loops and OpenBLAS kernels `voxelmocap track` runs with, so that
+# these runs are the command's on any CPU (voxelmocap.cpu_paths).
+cpu_paths.pin()
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
 
 DEMO = Path("/work/p2s/x/Pose2Sim/Demo_SinglePerson")
 REF = Path("/work/p2s_ref")

@@ -29,16 +29,22 @@ import json
 import time
 from pathlib import Path
 
-import numpy as np
-from bench_accuracy import CLIPS
-from bench_no_answer import stripped_copy
-from make_absence_clip import MOCAP, make_absence_clip
+from voxelmocap import cpu_paths
 
-from voxelmocap.config import TrackConfig, with_overrides
-from voxelmocap.io.humaneva import Dataset
-from voxelmocap.io.reports import score_against
-from voxelmocap.io.results import read_result
-from voxelmocap.run.pipeline import track_sequence
+# Before NumPy loads: the NumPy loops and OpenBLAS kernels `voxelmocap track` runs with, so that
+# these runs are the command's on any CPU (voxelmocap.cpu_paths).
+cpu_paths.pin()
+
+import numpy as np  # noqa: E402
+from bench_accuracy import CLIPS  # noqa: E402
+from bench_no_answer import stripped_copy  # noqa: E402
+from make_absence_clip import MOCAP, make_absence_clip  # noqa: E402
+
+from voxelmocap.config import TrackConfig, with_overrides  # noqa: E402
+from voxelmocap.io.humaneva import Dataset  # noqa: E402
+from voxelmocap.io.reports import score_against  # noqa: E402
+from voxelmocap.io.results import read_result  # noqa: E402
+from voxelmocap.run.pipeline import track_sequence  # noqa: E402
 
 
 def absence_run(data: Path, out: Path, config, seed: int, tag: str) -> dict:

@@ -24,15 +24,21 @@ import platform
 import time
 from pathlib import Path
 
-import numpy as np
+from voxelmocap import cpu_paths
 
-from voxelmocap.config import TrackConfig, with_overrides
-from voxelmocap.io.humaneva import Dataset
-from voxelmocap.pose.starts import ground_truth_landmarks
-from voxelmocap.pose.tracker import BodyTracker
-from voxelmocap.run.bodies import body_model_for
-from voxelmocap.run.measurement import MeasurementRunner
-from voxelmocap.synth import generate
+# Before NumPy loads: the NumPy loops and OpenBLAS kernels `voxelmocap track` runs with, so that
+# these runs are the command's on any CPU (voxelmocap.cpu_paths).
+cpu_paths.pin()
+
+import numpy as np  # noqa: E402
+
+from voxelmocap.config import TrackConfig, with_overrides  # noqa: E402
+from voxelmocap.io.humaneva import Dataset  # noqa: E402
+from voxelmocap.pose.starts import ground_truth_landmarks  # noqa: E402
+from voxelmocap.pose.tracker import BodyTracker  # noqa: E402
+from voxelmocap.run.bodies import body_model_for  # noqa: E402
+from voxelmocap.run.measurement import MeasurementRunner  # noqa: E402
+from voxelmocap.synth import generate  # noqa: E402
 
 
 def main() -> None:

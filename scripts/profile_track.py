@@ -39,6 +39,15 @@ import threading
 import time
 from collections import defaultdict
 
+try:
+    from voxelmocap import cpu_paths
+except ImportError:  # a checkout older than the pin (its command did not pin either)
+    cpu_paths = None
+if cpu_paths is not None:
+    # Before NumPy loads (the stages below import it before the command's module would): the
+    # NumPy loops and OpenBLAS kernels `voxelmocap track` runs with (voxelmocap.cpu_paths).
+    cpu_paths.pin()
+
 #: Phases of a run: (phase, "module:qualified.name") — every call of the function, and what it
 #: calls, belongs to the phase (the outermost phase running wins: the tracker's steps inside the
 #: multi-start are the multi-start's). Work outside every phase is the tracked frames' own.
