@@ -194,7 +194,12 @@ def test_frame_rate_of_image_folders_is_humaneva_i(tmp_path):
 def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
     """`track` killed (SIGKILL) at seeded random moments: the file always reads and holds a
     prefix of the uninterrupted run's frames; --resume then finishes bit-identically, leaving
-    only the outputs (result, XML, BVH, the default TRC and CSV) in the folder."""
+    only the outputs (result, XML, BVH, the default TRC and CSV) in the folder.
+
+    Every run is the command in a process of its own, as a user runs it: the command pins
+    NumPy's and OpenBLAS's CPU paths as it starts (``voxelmocap.cpu_paths``), which this test
+    process, NumPy loaded, cannot; on a CPU whose own paths round otherwise (an AVX-512 FP16
+    Xeon) a run in here is another run."""
     import os
     import signal
     import subprocess
@@ -203,18 +208,20 @@ def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
 
     args = ["--frames", "1:6", "--layers", "2", "--particles", "30", "--seed", "4",
             "--no-progress"]
-    assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
-                 "--out", str(tmp_path / "full"), *args]) == 0
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+
+    def track(out, *more):
+        return [sys.executable, "-m", "voxelmocap.cli", "track", str(walk_dataset), "--subject",
+                "S1", "--sequence", "Walking_1", "--out", str(out), *args, *more]
+
+    assert subprocess.run(track(tmp_path / "full"), env=env, capture_output=True).returncode == 0
     full = read_result(tmp_path / "full" / "S1" / "Walking_1.h5")
     rng = np.random.default_rng(15)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
     for k in range(3):
         run = tmp_path / f"killed{k}"
         path = run / "S1" / "Walking_1.h5"
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "voxelmocap.cli", "track", str(walk_dataset), "--subject", "S1",
-             "--sequence", "Walking_1", "--out", str(run), *args], env=env,
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen(track(run), env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
         wait_for = int(rng.integers(0, 6))  # committed frames to wait for, then a bit more
         while proc.poll() is None and (len(read_result(path)) if path.exists() else 0) < wait_for:
             time.sleep(0.005)
@@ -224,8 +231,8 @@ def test_killed_track_runs_resume_bit_identically(walk_dataset, tmp_path):
         if path.exists():  # (not when killed before its first frame)
             partial = read_result(path)
             np.testing.assert_array_equal(partial.state, full.state[:len(partial)])
-        assert main(["track", str(walk_dataset), "--subject", "S1", "--sequence", "Walking_1",
-                     "--out", str(run), "--resume", *args]) == 0
+        resumed_run = subprocess.run(track(run, "--resume"), env=env, capture_output=True)
+        assert resumed_run.returncode == 0, resumed_run.stderr[-2000:]
         resumed = read_result(path)
         for name in ("frames", "state", "map_state", "landmarks", "log_likelihood", "ess",
                      "landmark_spread", "confidence", "observed"):
